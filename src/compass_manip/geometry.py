@@ -1,0 +1,120 @@
+"""SE(3) helpers on 4x4 numpy arrays. Lengths in [m], angles in [rad]."""
+from __future__ import annotations
+
+import numpy as np
+
+from .errors import CompassInputError
+
+
+def make_T(R: np.ndarray | None = None, t: np.ndarray | None = None) -> np.ndarray:
+    """Homogeneous 4x4 transform from a 3x3 rotation and a translation [m]."""
+    T = np.eye(4)
+    if R is not None:
+        T[:3, :3] = R
+    if t is not None:
+        T[:3, 3] = t
+    return T
+
+
+def inv_T(T: np.ndarray) -> np.ndarray:
+    """Inverse of a rigid transform."""
+    R = T[:3, :3]
+    out = np.eye(4)
+    out[:3, :3] = R.T
+    out[:3, 3] = -R.T @ T[:3, 3]
+    return out
+
+
+def is_rigid(T: np.ndarray, tol: float = 1e-6) -> bool:
+    """True if T is a finite 4x4 rigid transform (orthonormal, det +1, last row 0 0 0 1)."""
+    T = np.asarray(T)
+    if T.shape != (4, 4) or not np.all(np.isfinite(T)):
+        return False
+    R = T[:3, :3]
+    return (
+        np.allclose(R.T @ R, np.eye(3), atol=tol)
+        and abs(np.linalg.det(R) - 1.0) < tol
+        and np.allclose(T[3], [0, 0, 0, 1], atol=tol)
+    )
+
+
+def check_rigid(T: np.ndarray, name: str = "T") -> np.ndarray:
+    """Return T as float64 or raise CompassInputError naming the problem."""
+    T = np.asarray(T, dtype=np.float64)
+    if T.shape != (4, 4):
+        raise CompassInputError(f"{name} must be a 4x4 rigid transform, got shape {T.shape}")
+    if not np.all(np.isfinite(T)):
+        raise CompassInputError(f"{name} contains NaN or inf; a finite rigid transform is required")
+    if not is_rigid(T, tol=1e-5):
+        raise CompassInputError(
+            f"{name} is not rigid (rotation not orthonormal with det +1, or last row not 0 0 0 1)"
+        )
+    return T
+
+
+def rot_x(a: float) -> np.ndarray:
+    c, s = np.cos(a), np.sin(a)
+    return np.array([[1, 0, 0], [0, c, -s], [0, s, c]])
+
+
+def rot_y(a: float) -> np.ndarray:
+    c, s = np.cos(a), np.sin(a)
+    return np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]])
+
+
+def rot_z(a: float) -> np.ndarray:
+    c, s = np.cos(a), np.sin(a)
+    return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
+
+
+def quat_to_R(q_wxyz: np.ndarray) -> np.ndarray:
+    """Rotation matrix from a unit quaternion (w, x, y, z)."""
+    w, x, y, z = np.asarray(q_wxyz, dtype=np.float64) / np.linalg.norm(q_wxyz)
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ]
+    )
+
+
+def R_to_quat(R: np.ndarray) -> np.ndarray:
+    """Unit quaternion (w, x, y, z) with w >= 0 from a rotation matrix."""
+    R = np.asarray(R, dtype=np.float64)
+    tr = np.trace(R)
+    if tr > 0:
+        s = 2.0 * np.sqrt(tr + 1.0)
+        q = [0.25 * s, (R[2, 1] - R[1, 2]) / s, (R[0, 2] - R[2, 0]) / s, (R[1, 0] - R[0, 1]) / s]
+    elif R[0, 0] > R[1, 1] and R[0, 0] > R[2, 2]:
+        s = 2.0 * np.sqrt(1.0 + R[0, 0] - R[1, 1] - R[2, 2])
+        q = [(R[2, 1] - R[1, 2]) / s, 0.25 * s, (R[0, 1] + R[1, 0]) / s, (R[0, 2] + R[2, 0]) / s]
+    elif R[1, 1] > R[2, 2]:
+        s = 2.0 * np.sqrt(1.0 + R[1, 1] - R[0, 0] - R[2, 2])
+        q = [(R[0, 2] - R[2, 0]) / s, (R[0, 1] + R[1, 0]) / s, 0.25 * s, (R[1, 2] + R[2, 1]) / s]
+    else:
+        s = 2.0 * np.sqrt(1.0 + R[2, 2] - R[0, 0] - R[1, 1])
+        q = [(R[1, 0] - R[0, 1]) / s, (R[0, 2] + R[2, 0]) / s, (R[1, 2] + R[2, 1]) / s, 0.25 * s]
+    q = np.array(q)
+    q /= np.linalg.norm(q)
+    return q if q[0] >= 0 else -q
+
+
+def look_at(eye: np.ndarray, target: np.ndarray, up: np.ndarray = (0.0, 0.0, 1.0)) -> np.ndarray:
+    """T_world_cam of a camera at `eye` [m] looking at `target` [m].
+
+    Camera frame convention (OpenCV): +z forward (optical axis), +x right, +y down.
+    """
+    eye = np.asarray(eye, dtype=np.float64)
+    z = np.asarray(target, dtype=np.float64) - eye
+    n = np.linalg.norm(z)
+    if n < 1e-9:
+        raise CompassInputError("look_at: eye and target coincide; they must differ")
+    z /= n
+    up = np.asarray(up, dtype=np.float64)
+    x = np.cross(z, up)
+    if np.linalg.norm(x) < 1e-6:  # looking along up: pick any perpendicular
+        x = np.cross(z, [1.0, 0.0, 0.0] if abs(z[0]) < 0.9 else [0.0, 1.0, 0.0])
+    x /= np.linalg.norm(x)
+    y = np.cross(z, x)
+    return make_T(np.column_stack([x, y, z]), eye)

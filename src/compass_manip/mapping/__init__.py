@@ -1,0 +1,1 @@
+"""Occupancy mapping from depth images: plain arrays in, no simulator."""
