@@ -32,8 +32,8 @@ QDD_MAX = np.array([15.0, 7.5, 10.0, 12.5, 15.0, 20.0, 20.0])
 QDDD_MAX = np.array([7500.0, 3750.0, 5000.0, 6250.0, 7500.0, 10000.0, 10000.0])
 
 #: Home configuration [rad]: the wrist camera looks horizontally along +x into the
-#: workspace in front of the robot (camera at about (0.44, 0, 0.68) m, 10 deg down).
-Q_HOME = np.array([0.0, -0.6, 0.0, -2.6, 0.0, 3.4, 0.785])
+#: workspace in front of the robot (camera at about (0.31, 0, 0.67) m, optical axis level).
+Q_HOME = np.array([0.0, -1.1, 0.0, -2.9, 0.0, 3.37, 0.785])
 
 #: Hand flange -> TCP (between the fingertips) [m].
 T_HAND_TCP = make_T(t=[0.0, 0.0, 0.1034])
@@ -75,9 +75,14 @@ class CameraConfig:
 
     @property
     def K(self) -> np.ndarray:
-        """3x3 pinhole intrinsics [px] (square pixels, principal point at the image centre)."""
+        """3x3 pinhole intrinsics [px]: square pixels, principal point at the image centre.
+
+        Pixel (u, v) = (column, row) has its centre at integer coordinates (OpenCV), so the
+        principal point is ((W - 1) / 2, (H - 1) / 2).
+        """
         f = 0.5 * self.height / math.tan(math.radians(self.fovy_deg) / 2.0)
-        return np.array([[f, 0.0, self.width / 2.0], [0.0, f, self.height / 2.0], [0.0, 0.0, 1.0]])
+        cx, cy = (self.width - 1) / 2.0, (self.height - 1) / 2.0
+        return np.array([[f, 0.0, cx], [0.0, f, cy], [0.0, 0.0, 1.0]])
 
     @property
     def T_hand_cam(self) -> np.ndarray:
@@ -183,7 +188,7 @@ def build_robot_spec(config: RobotConfig | None = None, actuators: bool = True):
         name="camera_housing",
         type=mujoco.mjtGeom.mjGEOM_BOX,
         size=[0.045, 0.0125, 0.0125],
-        pos=list(cam.T_hand_cam[:3, :3] @ [0.0, 0.0, -0.0125] + cam.T_hand_cam[:3, 3]),
+        pos=list(cam.T_hand_cam[:3, :3] @ [0.0, 0.0, -0.0135] + cam.T_hand_cam[:3, 3]),
         quat=list(R_to_quat(cam.T_hand_cam[:3, :3])),
         rgba=[0.15, 0.15, 0.15, 1.0],
         mass=0.07,
