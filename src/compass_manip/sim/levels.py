@@ -72,6 +72,18 @@ def _overlaps(a: Primitive, others: list[Primitive], gap: float) -> bool:
     return False
 
 
+def _fit_inside(p: Primitive, cab: CabinetSpec, margin: float = 0.003) -> Primitive:
+    """Shift p horizontally so its bounding box lies inside the cabinet's interior."""
+    lo, hi = p.aabb()
+    ilo = np.array(cab.interior_min[:2]) + margin
+    ihi = np.array(cab.interior_max[:2]) - margin
+    shift = np.maximum(ilo - lo[:2], 0.0) - np.maximum(hi[:2] - ihi, 0.0)
+    if not np.any(shift):
+        return p
+    pos = (float(p.pos[0] + shift[0]), float(p.pos[1] + shift[1]), p.pos[2])
+    return Primitive(p.name, p.shape, p.size, pos, p.yaw, p.rgba, p.movable, p.mass)
+
+
 def _cabinet(rng: np.random.Generator) -> CabinetSpec:
     x_front = _u(rng, 0.46, 0.52)
     depth = _u(rng, 0.30, 0.36)
@@ -123,8 +135,9 @@ def _board(name, rng, cab, target, d_occ: float, extra_half_w: float, h: float) 
     half_w = (r + 0.015) * (dist_t - d_occ) / dist_t + extra_half_w
     half_t = _u(rng, 0.01, 0.02)
     lo = cab.interior_min
-    return _box(name, (half_t, half_w, h / 2), (oc[0], oc[1], lo[2] + h / 2), float(np.arctan2(los[1], los[0])),
-                _colour(rng), True, 0.3)
+    board = _box(name, (half_t, half_w, h / 2), (oc[0], oc[1], lo[2] + h / 2), float(np.arctan2(los[1], los[0])),
+                 _colour(rng), True, 0.3)
+    return _fit_inside(board, cab)
 
 
 def _place_target(rng, cab: CabinetSpec) -> Primitive:
@@ -165,6 +178,7 @@ def _occlusion_l2(rng, cab: CabinetSpec) -> tuple[Primitive, list[Primitive]]:
     h_side = h * _u(rng, 0.75, 0.9)
     wall = _box("occluder1", (length / 2, 0.012, h_side / 2), (centre[0], centre[1], lo[2] + h_side / 2),
                 float(np.arctan2(los[1], los[0])), _colour(rng), True, 0.2)
+    wall = _fit_inside(wall, cab)
     return target, [board, wall]
 
 

@@ -1,0 +1,72 @@
+"""`compass mbm PATH`: solve MotionBenchMaker problems with our collision model and planner."""
+from __future__ import annotations
+
+import json
+import math
+import sys
+
+HELP = "solve MotionBenchMaker problems (folder or .tar.bz2) and print per-family results"
+
+
+def add_arguments(parser) -> None:
+    parser.add_argument("path", help="folder or .tar.bz2 of sceneNNNN.yaml + requestNNNN.yaml pairs")
+    parser.add_argument("--json", action="store_true", help="print one JSON object per family")
+    parser.add_argument("--time-budget", type=float, default=1.0, metavar="S",
+                        help="planning time budget per problem [s] (default 1.0)")
+    parser.add_argument("--resolution", type=float, default=None, metavar="RAD",
+                        help="edge check resolution [rad] while planning (default: planner default)")
+    parser.add_argument("--validate-resolution", type=float, default=0.005, metavar="RAD",
+                        help="resolution [rad] of the re-check of every returned path (default 0.005)")
+    parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    parser.add_argument("--backend", choices=("numba", "ompl"), default="numba", help="planner backend")
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
+
+
+def _fmt(x: float) -> str:
+    return "-" if not math.isfinite(x) else f"{x:.2f}"
+
+
+def run(args) -> int:
+    import numpy as np
+    from tqdm import tqdm
+
+    from ..errors import CompassInputError
+    from ..motion.mbm import family_stats, load_problems, solve_problem
+    from ..motion.planner import PlannerConfig
+    from ..robot.spheres import panda_sphere_model
+
+    if not 0.0 < args.validate_resolution <= 0.5:
+        raise CompassInputError(f"--validate-resolution {args.validate_resolution} rad is not allowed; use 0 < r <= 0.5")
+    kw = {"time_budget": args.time_budget, "seed": args.seed, "backend": args.backend}
+    if args.resolution is not None:
+        kw["edge_resolution"] = args.resolution
+    config = PlannerConfig(**kw)
+    problems = load_problems(args.path)
+    spheres = panda_sphere_model()
+    outcomes = []
+    bar = tqdm(problems, desc="mbm", unit="problem", file=sys.stderr,
+               disable=args.no_progress or None, leave=False)
+    for i, p in enumerate(bar):
+        rng = np.random.default_rng([args.seed, i])
+        outcomes.append(solve_problem(p, spheres, config, rng, args.validate_resolution))
+    stats = family_stats(outcomes)
+    if args.json:
+        for s in stats:
+            print(json.dumps(s.as_json()))
+        return 0
+    print(f"{'family':<18} {'problems':>8} {'rejected':>8} {'solved':>7} {'median ms':>10} {'p90 ms':>9}")
+    for s in stats:
+        print(f"{s.family:<18} {s.problems:>8} {s.rejected:>8} {s.solved:>7} "
+              f"{_fmt(s.plan_ms_median):>10} {_fmt(s.plan_ms_p90):>9}")
+    reasons: dict[tuple[str, str], int] = {}
+    for o in outcomes:
+        if o.rejection is not None:
+            key = (o.family, o.rejection.value)
+            reasons[key] = reasons.get(key, 0) + 1
+    for (fam, why), n in sorted(reasons.items()):
+        print(f"rejected: {fam}: {n} x {why}")
+    for s in stats:
+        if s.path_invalid:
+            print(f"warning: {s.family}: {s.path_invalid} returned paths failed the re-check "
+                  f"at {args.validate_resolution} rad and count as unsolved")
+    return 0

@@ -1,0 +1,110 @@
+"""Rendering, ray casting, geometry of frames, contacts."""
+import numpy as np
+import pytest
+
+from compass_manip.errors import CompassInputError
+from compass_manip.robot.model import Q_HOME
+from compass_manip.sim.certify import regenerate
+from compass_manip.sim.world import World
+
+
+@pytest.fixture(scope="module")
+def world4():
+    w = World(regenerate((0, 4, 0, 0)))
+    yield w
+    w.close()
+
+
+def _poses():
+    rng = np.random.default_rng(3)
+    return [Q_HOME] + [Q_HOME + rng.uniform(-0.25, 0.25, 7) for _ in range(3)]
+
+
+def test_rendered_depth_equals_raycast_depth(world4):
+    for q in _poses():
+        world4.set_q(q)
+        gl = world4.render_depth()
+        rc = world4.raycast_depth()
+        hit = np.isfinite(gl) & np.isfinite(rc) & (gl > 0) & (rc > 0)
+        assert hit.mean() > 0.5
+        close = np.abs(gl[hit] - rc[hit]) <= 1e-3
+        assert close.mean() >= 0.999
+        assert np.array_equal(np.isfinite(gl), np.isfinite(rc))
+
+
+def test_back_projected_wall_lies_on_its_plane(world4):
+    """Pixels seeing the cabinet's back board back-project onto the plane x = interior_max.x."""
+    f = world4.render(Q_HOME)
+    back = f.seg == world4.labels["cab_back"]
+    assert back.sum() > 1000
+    v, u = np.nonzero(back)
+    z = f.depth[v, u].astype(float)
+    K = f.K
+    pts_cam = np.stack([(u - K[0, 2]) / K[0, 0] * z, (v - K[1, 2]) / K[1, 1] * z, z], axis=1)
+    pts = pts_cam @ f.T_world_cam[:3, :3].T + f.T_world_cam[:3, 3]
+    x_plane = world4.scene.cabinet.interior_max[0]
+    assert np.abs(pts[:, 0] - x_plane).max() < 1e-3
+
+
+def test_same_seed_same_depth():
+    a, b = World(regenerate((9, 3, 2, 0))), World(regenerate((9, 3, 2, 0)))
+    try:
+        assert np.array_equal(a.render(Q_HOME).depth, b.render(Q_HOME).depth)
+    finally:
+        a.close()
+        b.close()
+
+
+def test_frame_contents(world4):
+    f = world4.render(Q_HOME, t=1.5)
+    H, W = world4.camera.height, world4.camera.width
+    assert f.depth.shape == (H, W) and f.depth.dtype == np.float32
+    assert f.rgb.shape == (H, W, 3) and f.rgb.dtype == np.uint8
+    assert f.seg.shape == (H, W)
+    assert f.t == 1.5 and np.allclose(f.q, Q_HOME)
+    valid = np.isfinite(f.depth) & (f.depth > 0)
+    assert np.all(f.depth[valid] >= world4.camera.depth_min) and np.all(f.depth[valid] <= world4.camera.depth_max)
+    # camera pose: optical axis level and pointing into the cabinet (+x) at home
+    assert f.T_world_cam[0, 2] > 0.99
+    # the mount transform chain: T_world_cam = T_world_hand @ T_hand_cam
+    hid = world4.model.body("hand/panda_hand").id
+    T_world_hand = np.eye(4)
+    T_world_hand[:3, :3] = world4.data.xmat[hid].reshape(3, 3)
+    T_world_hand[:3, 3] = world4.data.xpos[hid]
+    assert np.allclose(T_world_hand @ world4.camera.T_hand_cam, f.T_world_cam, atol=1e-6)
+
+
+def test_intrinsics_match_the_field_of_view(world4):
+    K = world4.camera.K
+    assert 2 * np.degrees(np.arctan(world4.camera.height / 2 / K[1, 1])) == pytest.approx(58.0)
+
+
+def test_target_hidden_at_start_and_home_collision_free(world4):
+    assert world4.target_visibility(Q_HOME) < 0.05
+    assert world4.contacts(Q_HOME, include_self=True) == []
+
+
+def test_set_q_rejects_bad_joints(world4):
+    with pytest.raises(CompassInputError, match="NaN"):
+        world4.set_q(np.full(7, np.nan))
+    with pytest.raises(CompassInputError, match="outside joint 4"):
+        world4.set_q(np.array([0, 0, 0, 0.5, 0, 1, 0]))
+    with pytest.raises(CompassInputError, match="7 joint angles"):
+        world4.set_q(np.zeros(6))
+
+
+def test_scene_objects_do_not_interpenetrate():
+    import mujoco
+
+    for k in range(6):
+        for level in (2, 4):
+            w = World(regenerate((k, level, 0, 0)))
+            try:
+                mujoco.mj_collision(w.model, w.data)
+                for i in range(w.data.ncon):
+                    c = w.data.contact[i]
+                    if w.is_robot_geom[c.geom1] or w.is_robot_geom[c.geom2]:
+                        continue
+                    assert c.dist > -1e-4, (w._geom_name(c.geom1), w._geom_name(c.geom2), c.dist)
+            finally:
+                w.close()
