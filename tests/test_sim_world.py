@@ -108,3 +108,20 @@ def test_scene_objects_do_not_interpenetrate():
                     assert c.dist > -1e-4, (w._geom_name(c.geom1), w._geom_name(c.geom2), c.dist)
             finally:
                 w.close()
+
+
+def test_camera_is_configurable():
+    from compass_manip.robot.model import CameraConfig, RobotConfig
+
+    cam = CameraConfig(width=160, height=120, fovy_deg=45.0, depth_min=0.2, depth_max=1.0)
+    w = World(regenerate((0, 1, 0, 0)), RobotConfig(camera=cam))
+    try:
+        f = w.render(Q_HOME)
+        assert f.depth.shape == (120, 160) and np.allclose(f.K, cam.K)
+        valid = np.isfinite(f.depth) & (f.depth > 0)
+        assert np.all(f.depth[valid] <= 1.0) and np.all(f.depth[valid] >= 0.2)
+        rc = w.raycast_depth()
+        hit = valid & np.isfinite(rc)
+        assert (np.abs(f.depth[hit] - rc[hit]) <= 1e-3).mean() >= 0.999
+    finally:
+        w.close()
