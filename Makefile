@@ -6,6 +6,8 @@ export MUJOCO_GL ?= egl
 export PYOPENGL_PLATFORM ?= egl
 export NUMBA_CACHE_DIR ?= $(CURDIR)/.cache/numba
 export MPLBACKEND ?= Agg
+# numba's OpenMP workers spin-wait by default; on 2 shared cores that triples integration time
+export OMP_WAIT_POLICY ?= PASSIVE
 
 .PHONY: venv demo test bench clean
 

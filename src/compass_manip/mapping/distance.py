@@ -1,0 +1,253 @@
+"""Euclidean distance field of unsafe space, for collision checking against the map.
+
+Unsafe = occupied or unknown (motion never enters unseen space), minus the voxels the caller
+marks safe: a boolean voxel mask and/or spheres (e.g. the robot's own collision spheres at
+the start configuration), a voxel being inside a sphere when its centre is.
+
+`distances[i, j, k]` is the exact Euclidean distance [m] from the centre of voxel (i, j, k)
+to the centre of the nearest unsafe voxel, 0 on unsafe voxels (the separable transform of
+Felzenszwalb & Huttenlocher, "Distance Transforms of Sampled Functions", 2012, in numba;
+the same values as `scipy.ndimage.distance_transform_edt`, about 4x faster here). The
+surface of that voxel is at least `d - sqrt(3) / 2 * resolution` away, so a collision
+checker should subtract that margin (or half a voxel for axis-aligned approaches).
+
+Outside the workspace box: with `outside_is_unsafe=True` (default) the space around the box
+is unsafe: the field treats a one-voxel shell around the grid as unsafe and `distance_at`
+returns 0 for points outside the box. With False, the outside neither blocks nor counts
+and a point outside gets the value at its projection onto the box, which is a lower bound
+of its distance to every unsafe voxel in the box (projection onto a convex set never
+increases distances).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from enum import IntEnum
+
+import numpy as np
+from numba import njit, prange
+
+from ..errors import CompassInputError
+from .occupancy import OccupancyMap, VoxelState
+
+
+class Interpolation(IntEnum):
+    NEAREST = 0  # value of the voxel containing the point
+    TRILINEAR = 1  # trilinear between the 8 surrounding voxel centres
+
+
+@dataclass(frozen=True)
+class DistanceFieldConfig:
+    outside_is_unsafe: bool = True
+    interpolation: Interpolation = Interpolation.TRILINEAR
+
+
+def unsafe_mask(
+    occ_map: OccupancyMap,
+    safe_voxels: np.ndarray | None = None,
+    safe_spheres: tuple[np.ndarray, np.ndarray] | None = None,
+) -> np.ndarray:
+    """(nx, ny, nz) bool: occupied or unknown, except voxels marked safe.
+
+    safe_voxels: bool mask of the grid's shape. safe_spheres: (centers_world (S, 3) [m],
+    radii (S,) [m]); voxels whose centres lie inside any sphere are safe.
+    """
+    unsafe = occ_map.state != VoxelState.FREE
+    if safe_voxels is not None:
+        sv = np.asarray(safe_voxels, dtype=bool)
+        if sv.shape != unsafe.shape:
+            raise CompassInputError(f"safe_voxels has shape {sv.shape}; the grid's shape {unsafe.shape} is required")
+        unsafe &= ~sv
+    if safe_spheres is not None:
+        c = np.asarray(safe_spheres[0], dtype=np.float64).reshape(-1, 3)
+        r = np.asarray(safe_spheres[1], dtype=np.float64).reshape(-1)
+        if len(c) != len(r) or not (np.all(np.isfinite(c)) and np.all(np.isfinite(r)) and np.all(r >= 0)):
+            raise CompassInputError("safe_spheres must be finite centres (S, 3) [m] and radii (S,) >= 0 [m]")
+        _clear_spheres(unsafe, occ_map.grid_min, occ_map.resolution, c, r)
+    return unsafe
+
+
+class DistanceField:
+    """Distance [m] to the nearest unsafe voxel on the map's grid (see module doc)."""
+
+    def __init__(self, distances: np.ndarray, grid_min: np.ndarray, resolution: float,
+                 config: DistanceFieldConfig | None = None) -> None:
+        self.distances = np.ascontiguousarray(distances, dtype=np.float32)
+        self.grid_min = np.asarray(grid_min, dtype=np.float64)
+        self.resolution = float(resolution)
+        self.config = config or DistanceFieldConfig()
+
+    @classmethod
+    def from_map(
+        cls,
+        occ_map: OccupancyMap,
+        config: DistanceFieldConfig | None = None,
+        safe_voxels: np.ndarray | None = None,
+        safe_spheres: tuple[np.ndarray, np.ndarray] | None = None,
+    ) -> DistanceField:
+        config = config or DistanceFieldConfig()
+        unsafe = unsafe_mask(occ_map, safe_voxels, safe_spheres)
+        if config.outside_is_unsafe:
+            unsafe = np.pad(unsafe, 1, constant_values=True)
+        if unsafe.any():
+            dist = _distances(unsafe, occ_map.resolution)
+        else:
+            dist = np.full(unsafe.shape, np.inf, np.float32)
+        if config.outside_is_unsafe:
+            dist = dist[1:-1, 1:-1, 1:-1]
+        return cls(dist, occ_map.grid_min, occ_map.resolution, config)
+
+    def distance_at(self, points_world: np.ndarray) -> np.ndarray:
+        """Distances (N,) [m] at world points (N, 3) [m] (interpolation and outside rule
+        from the config)."""
+        p = np.ascontiguousarray(np.asarray(points_world, dtype=np.float64).reshape(-1, 3))
+        return _lookup_many(self.distances, self.grid_min, 1.0 / self.resolution, p,
+                            self.config.outside_is_unsafe, int(self.config.interpolation))
+
+
+@njit(cache=True)
+def distance_lookup(dist, grid_min, inv_res, x, y, z, outside_is_unsafe, interpolation):
+    """Distance [m] at world point (x, y, z) [m]; callable from other numba code.
+
+    dist: (nx, ny, nz) field; grid_min (3,) [m] low corner of the grid; inv_res [1/m];
+    interpolation: 0 nearest, 1 trilinear (see `Interpolation`).
+    """
+    nx, ny, nz = dist.shape
+    gx = (x - grid_min[0]) * inv_res
+    gy = (y - grid_min[1]) * inv_res
+    gz = (z - grid_min[2]) * inv_res
+    if not (0.0 <= gx < nx and 0.0 <= gy < ny and 0.0 <= gz < nz):
+        if outside_is_unsafe or math.isnan(gx + gy + gz):
+            return 0.0
+        gx = min(max(gx, 0.0), nx - 1e-9)
+        gy = min(max(gy, 0.0), ny - 1e-9)
+        gz = min(max(gz, 0.0), nz - 1e-9)
+    if interpolation == 0:
+        return float(dist[int(gx), int(gy), int(gz)])
+    cx = min(max(gx - 0.5, 0.0), nx - 1.0)
+    cy = min(max(gy - 0.5, 0.0), ny - 1.0)
+    cz = min(max(gz - 0.5, 0.0), nz - 1.0)
+    i0 = min(int(cx), max(nx - 2, 0))
+    j0 = min(int(cy), max(ny - 2, 0))
+    k0 = min(int(cz), max(nz - 2, 0))
+    i1 = min(i0 + 1, nx - 1)
+    j1 = min(j0 + 1, ny - 1)
+    k1 = min(k0 + 1, nz - 1)
+    fx = cx - i0
+    fy = cy - j0
+    fz = cz - k0
+    c00 = dist[i0, j0, k0] * (1 - fx) + dist[i1, j0, k0] * fx
+    c10 = dist[i0, j1, k0] * (1 - fx) + dist[i1, j1, k0] * fx
+    c01 = dist[i0, j0, k1] * (1 - fx) + dist[i1, j0, k1] * fx
+    c11 = dist[i0, j1, k1] * (1 - fx) + dist[i1, j1, k1] * fx
+    c0 = c00 * (1 - fy) + c10 * fy
+    c1 = c01 * (1 - fy) + c11 * fy
+    return float(c0 * (1 - fz) + c1 * fz)
+
+
+@njit(cache=True, parallel=True)
+def _lookup_many(dist, grid_min, inv_res, points, outside_is_unsafe, interpolation):
+    out = np.empty(points.shape[0])
+    for n in prange(points.shape[0]):
+        out[n] = distance_lookup(dist, grid_min, inv_res, points[n, 0], points[n, 1], points[n, 2],
+                                 outside_is_unsafe, interpolation)
+    return out
+
+
+_FAR = 1.0e20  # squared distance [voxels^2] standing for "no unsafe voxel on this line"
+
+
+@njit(cache=True, inline="always")
+def _envelope_1d(f, n, d, v, z):
+    """d[0:n] = min over p of (q - p)^2 + f[p]: lower envelope of parabolas (F&H)."""
+    k = 0
+    v[0] = 0
+    z[0] = -10.0 * _FAR
+    z[1] = 10.0 * _FAR
+    for q in range(1, n):
+        fq = f[q] + q * q
+        p = v[k]
+        s = (fq - (f[p] + p * p)) / (2.0 * (q - p))
+        while s <= z[k]:
+            k -= 1
+            p = v[k]
+            s = (fq - (f[p] + p * p)) / (2.0 * (q - p))
+        k += 1
+        v[k] = q
+        z[k] = s
+        z[k + 1] = 10.0 * _FAR
+    k = 0
+    for q in range(n):
+        while z[k + 1] < q:
+            k += 1
+        p = v[k]
+        d[q] = (q - p) * (q - p) + f[p]
+
+
+@njit(cache=True, parallel=True)
+def _distances(unsafe, res):
+    """Distances [m] (float32) from each voxel centre to the nearest unsafe voxel centre."""
+    nx, ny, nz = unsafe.shape
+    sq = np.empty((nx, ny, nz))
+    for i in prange(nx):  # along z: nearest unsafe voxel on the line, two scans
+        for j in range(ny):
+            last = -1
+            for k in range(nz):
+                if unsafe[i, j, k]:
+                    last = k
+                sq[i, j, k] = (k - last) if last >= 0 else _FAR
+            last = -1
+            for k in range(nz - 1, -1, -1):
+                if unsafe[i, j, k]:
+                    last = k
+                if last >= 0 and last - k < sq[i, j, k]:
+                    sq[i, j, k] = last - k
+            for k in range(nz):
+                a = sq[i, j, k]
+                sq[i, j, k] = a * a if a < _FAR else _FAR
+    m = max(nx, ny)
+    for i in prange(nx):  # along y
+        f = np.empty(m)
+        d = np.empty(m)
+        v = np.empty(m, np.int64)
+        z = np.empty(m + 1)
+        for k in range(nz):
+            for j in range(ny):
+                f[j] = sq[i, j, k]
+            _envelope_1d(f, ny, d, v, z)
+            for j in range(ny):
+                sq[i, j, k] = d[j]
+    out = np.empty((nx, ny, nz), np.float32)
+    for j in prange(ny):  # along x, then metres
+        f = np.empty(m)
+        d = np.empty(m)
+        v = np.empty(m, np.int64)
+        z = np.empty(m + 1)
+        for k in range(nz):
+            for i in range(nx):
+                f[i] = sq[i, j, k]
+            _envelope_1d(f, nx, d, v, z)
+            for i in range(nx):
+                out[i, j, k] = math.sqrt(d[i]) * res
+    return out
+
+
+@njit(cache=True)
+def _clear_spheres(unsafe, grid_min, res, centers, radii):
+    nx, ny, nz = unsafe.shape
+    for s in range(centers.shape[0]):
+        r = radii[s]
+        lo = np.empty(3, np.int64)
+        hi = np.empty(3, np.int64)
+        n = (nx, ny, nz)
+        for a in range(3):
+            lo[a] = max(int(math.floor((centers[s, a] - r - grid_min[a]) / res - 0.5)), 0)
+            hi[a] = min(int(math.ceil((centers[s, a] + r - grid_min[a]) / res - 0.5)), n[a] - 1)
+        for i in range(lo[0], hi[0] + 1):
+            dx = grid_min[0] + (i + 0.5) * res - centers[s, 0]
+            for j in range(lo[1], hi[1] + 1):
+                dy = grid_min[1] + (j + 0.5) * res - centers[s, 1]
+                for k in range(lo[2], hi[2] + 1):
+                    dz = grid_min[2] + (k + 0.5) * res - centers[s, 2]
+                    if dx * dx + dy * dy + dz * dz <= r * r:
+                        unsafe[i, j, k] = False

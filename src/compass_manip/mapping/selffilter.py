@@ -1,0 +1,100 @@
+"""Self-filtering: drop depth points that lie on the robot's own body.
+
+A self-filter is any callable `points_world (N, 3) [m] -> bool (N,)` returning True for
+points inside the robot (see `occupancy.PointFilter`); `OccupancyMap.integrate` drops those
+pixels (neither hit nor ray) before integration. The filter works from geometry only, not
+from simulator labels. `SphereBodyFilter` is the geometric implementation over a set of
+body spheres, e.g. the robot's collision spheres posed at the current configuration.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from ..errors import CompassInputError
+
+
+class SphereBodyFilter:
+    """Points inside any of the spheres (centers_world (S, 3) [m], radii (S,) [m]),
+    each inflated by `margin` [m] (for depth noise and sphere-fit error).
+
+    Build it once per robot configuration (about 1 ms for the Panda's ~350 spheres); a
+    uniform grid of `cell_size` [m] lists the spheres overlapping each cell, so a point is
+    tested against the few spheres of its cell only."""
+
+    def __init__(self, centers_world: np.ndarray, radii: np.ndarray, margin: float = 0.0,
+                 cell_size: float = 0.04) -> None:
+        c = np.ascontiguousarray(np.asarray(centers_world, dtype=np.float64).reshape(-1, 3))
+        r = np.ascontiguousarray(np.asarray(radii, dtype=np.float64).reshape(-1))
+        if len(c) != len(r):
+            raise CompassInputError(f"{len(c)} sphere centres but {len(r)} radii; counts must match")
+        if not (np.all(np.isfinite(c)) and np.all(np.isfinite(r)) and np.all(r >= 0.0)):
+            raise CompassInputError("sphere centres must be finite [m] and radii finite and >= 0 [m]")
+        if not (math.isfinite(margin) and margin >= 0.0):
+            raise CompassInputError(f"margin {margin} m is not allowed; use a finite value >= 0")
+        if not (math.isfinite(cell_size) and cell_size >= 0.005):
+            raise CompassInputError(f"cell_size {cell_size} m is not allowed; use a finite value >= 0.005")
+        self.centers_world = c
+        self.radii = r
+        self.margin = float(margin)
+        rr = r + self.margin
+        self._r2 = rr * rr
+        # uniform grid over the spheres' bounding box; cell -> spheres whose boxes overlap it
+        if len(c):
+            lo_s = c - rr[:, None]
+            hi_s = c + rr[:, None]
+            self._lo = lo_s.min(axis=0)
+            self._cell = float(cell_size)
+            self._dims = np.floor((hi_s.max(axis=0) - self._lo) / self._cell).astype(np.int64) + 1
+            a = np.clip(np.floor((lo_s - self._lo) / self._cell).astype(np.int64), 0, self._dims - 1)
+            b = np.clip(np.floor((hi_s - self._lo) / self._cell).astype(np.int64), 0, self._dims - 1)
+            k = int((b - a).max()) + 1  # cells per axis of the largest sphere
+            off = np.stack(np.meshgrid(*[np.arange(k)] * 3, indexing="ij"), axis=-1).reshape(-1, 3)
+            cand = a[:, None, :] + off[None]  # (S, k^3, 3)
+            ok = np.all(cand <= b[:, None, :], axis=2)
+            sph = np.broadcast_to(np.arange(len(c))[:, None], ok.shape)[ok]
+            g = cand[ok]
+            cells = (g[:, 0] * self._dims[1] + g[:, 1]) * self._dims[2] + g[:, 2]
+            order = np.argsort(cells, kind="stable")
+            self._items = sph[order].astype(np.int64)
+            self._start = np.searchsorted(cells[order], np.arange(int(np.prod(self._dims)) + 1)).astype(np.int64)
+        else:
+            self._lo = np.zeros(3)
+            self._cell = 1.0
+            self._dims = np.zeros(3, np.int64)
+            self._items = np.zeros(0, np.int64)
+            self._start = np.zeros(1, np.int64)
+
+    def __call__(self, points_world: np.ndarray) -> np.ndarray:
+        p = np.asarray(points_world, dtype=np.float64)
+        if p.ndim != 2 or p.shape[1] != 3:
+            raise CompassInputError(f"points_world must have shape (N, 3), got {p.shape}")
+        return _inside_spheres(np.ascontiguousarray(p), self.centers_world, self._r2, self._lo, 1.0 / self._cell,
+                               self._dims, self._start, self._items)
+
+
+@njit(cache=True)
+def _inside_spheres(points, centers, r2, lo, inv_cell, dims, start, items):
+    n = points.shape[0]
+    out = np.zeros(n, np.bool_)
+    for i in range(n):
+        x = points[i, 0]
+        y = points[i, 1]
+        z = points[i, 2]
+        a = math.floor((x - lo[0]) * inv_cell)
+        b = math.floor((y - lo[1]) * inv_cell)
+        c = math.floor((z - lo[2]) * inv_cell)
+        if not (0 <= a < dims[0] and 0 <= b < dims[1] and 0 <= c < dims[2]):
+            continue
+        cell = (int(a) * dims[1] + int(b)) * dims[2] + int(c)
+        for t in range(start[cell], start[cell + 1]):
+            s = items[t]
+            dx = x - centers[s, 0]
+            dy = y - centers[s, 1]
+            dz = z - centers[s, 2]
+            if dx * dx + dy * dy + dz * dz <= r2[s]:
+                out[i] = True
+                break
+    return out

@@ -1,0 +1,45 @@
+"""Self-filtering: points inside the robot's body spheres are dropped before integration."""
+import numpy as np
+import pytest
+
+from compass_manip.errors import CompassInputError
+from compass_manip.geometry import look_at
+from compass_manip.mapping.occupancy import MapConfig, OccupancyMap, VoxelState
+from compass_manip.mapping.selffilter import SphereBodyFilter
+
+K = np.array([[50.0, 0.0, 15.5], [0.0, 50.0, 11.5], [0.0, 0.0, 1.0]])  # 32 x 24 px
+
+
+def test_sphere_filter_matches_definition():
+    rng = np.random.default_rng(0)
+    c = rng.uniform(-0.5, 0.5, (7, 3))
+    r = rng.uniform(0.02, 0.2, 7)
+    p = rng.uniform(-0.7, 0.7, (5000, 3))
+    expect = (np.linalg.norm(p[:, None] - c[None], axis=-1) <= r + 0.01).any(axis=1)
+    mask = SphereBodyFilter(c, r, margin=0.01)(p)
+    assert mask.dtype == bool and np.array_equal(mask, expect) and 0 < mask.sum() < len(p)
+    assert not SphereBodyFilter(np.zeros((0, 3)), np.zeros(0))(p).any()
+    with pytest.raises(CompassInputError, match="radii"):
+        SphereBodyFilter(c, r[:3])
+
+
+def test_integrate_drops_pixels_on_the_body():
+    cfg = MapConfig(box_min=(-0.1, -0.4, 0.1), box_max=(0.8, 0.4, 0.9), ray_grouping=0)
+    T = look_at([0.0, 0.0, 0.5], [1.0, 0.0, 0.5])
+    depth = np.full((24, 32), 0.4, np.float32)
+    depth[:, :10] = 0.15  # a "gripper finger" in the left third of the image
+    v, u = np.mgrid[0:24, 0:32]
+    rays = np.stack([(u - K[0, 2]) / K[0, 0], (v - K[1, 2]) / K[1, 1], np.ones_like(u, float)], -1)
+    pts = ((rays * depth[..., None].astype(np.float64)) @ T[:3, :3].T + T[:3, 3]).reshape(-1, 3)
+    body = SphereBodyFilter(np.array([[0.15, 0.06, 0.5]]), np.array([0.06]))
+    on_body = body(pts)
+    assert on_body.sum() == 240  # exactly the finger pixels
+    filtered = OccupancyMap(cfg)
+    stats = filtered.integrate(depth, K, T, 1.0, point_filter=body)
+    assert stats.n_filtered == 240 and stats.n_rays == 24 * 32 - 240
+    expect = OccupancyMap(cfg)
+    expect.integrate_points(pts[~on_body], T[:3, 3], 1.0)
+    assert np.array_equal(filtered.state, expect.state)
+    assert not (filtered.state_at(pts[on_body]) == VoxelState.OCCUPIED).any()
+    with pytest.raises(CompassInputError, match="point_filter"):
+        OccupancyMap(cfg).integrate(depth, K, T, 1.0, point_filter=lambda p: np.ones(3, bool))
