@@ -1,0 +1,276 @@
+"""Inverse kinematics of the Panda for TCP, camera and flange poses, and "look at a point".
+
+Analytic solutions come from `frankik.ik_full` (up to 4 per value of q7) over a sweep of q7,
+given the flange (panda_link8) pose computed with the model's own 45 deg hand mount (frankik's
+`FrankaHandTCPOffset` rounds it to 0.707, a 1e-4 error). Measured: frankik then agrees with our
+FK to 1e-12 m. Each solution is still refined by damped least squares on our FK (a guard for
+other MJCFs), kept if it reaches the target within tolerance and the joint limits,
+deduplicated and ordered by joint distance to a reference configuration q_ref [rad].
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from enum import Enum
+from functools import lru_cache
+
+import numba as nb
+import numpy as np
+
+from ..errors import CompassInputError
+from ..geometry import check_rigid, inv_T, look_at
+from .kinematics import PandaKinematics, fk_links_kernel, jacobian_kernel
+from .model import Q_MAX, Q_MIN, RobotConfig, check_q
+
+
+@dataclass(frozen=True)
+class IKConfig:
+    """n_q7 q7 samples over its range (plus q_ref[6]), n_q7_retry samples when those give no
+    solution (some poses admit only a narrow band of q7); refine_iters DLS iterations at most;
+    damping [m] of DLS; tol_pos [m] / tol_rot [rad] acceptance; dedupe_tol [rad] max joint
+    difference under which two solutions are the same."""
+
+    n_q7: int = 16
+    n_q7_retry: int = 128
+    refine_iters: int = 20
+    damping: float = 1e-4
+    tol_pos: float = 1e-4
+    tol_rot: float = 1e-4
+    dedupe_tol: float = 1e-3
+
+    def __post_init__(self) -> None:
+        if not 1 <= self.n_q7 <= 1000:
+            raise CompassInputError(f"n_q7 {self.n_q7} is not allowed; use 1..1000")
+        if not 0 <= self.refine_iters <= 1000:
+            raise CompassInputError(f"refine_iters {self.refine_iters} is not allowed; use 0..1000")
+        if not (0 < self.tol_pos <= 0.01 and 0 < self.tol_rot <= 0.1):
+            raise CompassInputError("tol_pos must be in (0, 0.01] m and tol_rot in (0, 0.1] rad")
+
+
+class IKStatus(Enum):
+    """SOLVED: at least one solution. IN_COLLISION: solutions exist but the validity checker
+    rejected all of them. NOT_CONVERGED: analytic candidates existed but none refined to the
+    tolerance. NO_ANALYTIC_SOLUTION: frankik found none for any sampled q7
+    (pose out of reach, or its q7 band was missed). Listed in order of preference."""
+
+    SOLVED = "solved"
+    IN_COLLISION = "in_collision"
+    NOT_CONVERGED = "not_converged"
+    NO_ANALYTIC_SOLUTION = "no_analytic_solution"
+
+
+@dataclass(frozen=True, eq=False)
+class IKResult:
+    """solutions (k,7) [rad] ordered by Euclidean joint distance to q_ref (k may be 0);
+    pos_err (k,) [m] and rot_err (k,) [rad] of FK(solution) against its target;
+    T_world_targets (k,4,4) the pose of `frame` each solution reaches ('tcp', 'cam', 'hand')."""
+
+    solutions: np.ndarray
+    pos_err: np.ndarray
+    rot_err: np.ndarray
+    T_world_targets: np.ndarray
+    frame: str
+    status: IKStatus
+
+    @property
+    def success(self) -> bool:
+        return self.solutions.shape[0] > 0
+
+    @property
+    def best(self) -> np.ndarray | None:
+        """The solution closest to q_ref, or None."""
+        return self.solutions[0] if self.success else None
+
+
+@nb.njit(cache=True)
+def _rot_log(R):
+    """Rotation vector [rad] of a rotation matrix."""
+    c = min(1.0, max(-1.0, 0.5 * (R[0, 0] + R[1, 1] + R[2, 2] - 1.0)))
+    a = math.acos(c)
+    v = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
+    s = math.sin(a)
+    if s < 1e-9:
+        if c > 0:
+            return 0.5 * v
+        # angle ~ pi: axis from the diagonal
+        ax = np.sqrt(np.maximum(0.0, (np.array([R[0, 0], R[1, 1], R[2, 2]]) + 1.0) / 2.0))
+        k = int(np.argmax(ax))
+        for i in range(3):
+            if i != k and R[k, i] + R[i, k] < 0:
+                ax[i] = -ax[i]
+        return a * ax / np.linalg.norm(ax)
+    return v * (a / (2.0 * s))
+
+
+@nb.njit(cache=True)
+def refine_kernel(q0, T_world_target_hand, hand_index, finger_pos, parent, T_parent_link, joint_kind,
+                  joint_index, axis, anchor, qmin, qmax, iters, damping, tol_pos, tol_rot):
+    """DLS refinement of q0 towards a hand-flange pose. Returns (q, pos_err [m], rot_err [rad])."""
+    q = q0.copy()
+    links = np.empty((parent.shape[0], 4, 4))
+    J = np.empty((6, 7))
+    e = np.empty(6)
+    pe, re = np.inf, np.inf
+    for it in range(iters + 1):
+        fk_links_kernel(q, finger_pos, parent, T_parent_link, joint_kind, joint_index, axis, anchor, links)
+        T = links[hand_index]
+        for r in range(3):
+            e[r] = T_world_target_hand[r, 3] - T[r, 3]
+        R_err = np.ascontiguousarray(T_world_target_hand[:3, :3]) @ np.ascontiguousarray(T[:3, :3].T)
+        w = _rot_log(R_err)
+        e[3:] = w
+        pe = math.sqrt(e[0] ** 2 + e[1] ** 2 + e[2] ** 2)
+        re = math.sqrt(w[0] ** 2 + w[1] ** 2 + w[2] ** 2)
+        if (pe < tol_pos and re < tol_rot) or it == iters:
+            break
+        jacobian_kernel(links, T[:3, 3].copy(), joint_kind, joint_index, axis, anchor, J)
+        A = J @ J.T + damping**2 * np.eye(6)
+        dq = J.T @ np.linalg.solve(A, e)
+        for j in range(7):
+            q[j] = min(qmax[j], max(qmin[j], q[j] + dq[j]))
+    return q, pe, re
+
+
+@lru_cache(maxsize=8)
+def _default_kin(config: RobotConfig) -> PandaKinematics:
+    return PandaKinematics(config)
+
+
+class PandaIK:
+    """IK solver bound to one robot (base pose, camera mount)."""
+
+    def __init__(self, kinematics: PandaKinematics | None = None, config: IKConfig | None = None):
+        import frankik
+
+        self._frankik = frankik
+        self.kin = kinematics or _default_kin(RobotConfig())
+        self.config = config or IKConfig()
+        L = self.kin.fk_links(np.clip(np.zeros(7), Q_MIN, Q_MAX))
+        i8 = self.kin.tree.index("panda_link8")
+        #: robot base (panda_link0) in the world
+        self.T_base_world = inv_T(L[0])
+        #: frankik's flange frame (panda_link8) in the hand frame: the 45 deg mount, from the model
+        self.T_hand_link8 = inv_T(L[self.kin.hand_index]) @ L[i8]
+
+    def solve(self, T_world_frame: np.ndarray, frame: str, q_ref: np.ndarray,
+              n_q7: int | None = None, validity=None, retry: bool = True) -> IKResult:
+        """All distinct IK solutions within limits putting `frame` ('tcp', 'cam', 'hand') at
+        T_world_frame, ordered by Euclidean joint distance to q_ref [rad]. validity: anything
+        with `are_valid(Q (N,7)) -> (N,) bool` (e.g. motion.validity.ValidityChecker) to keep
+        only collision-free solutions. retry: sweep n_q7_retry values of q7 if n_q7 found none."""
+        T_world_frame = check_rigid(T_world_frame, "T_world_frame")
+        q_ref = check_q(q_ref, "q_ref")
+        cfg = self.config
+        n_q7 = cfg.n_q7 if n_q7 is None else int(n_q7)
+        if not 1 <= n_q7 <= 1000:
+            raise CompassInputError(f"n_q7 {n_q7} is not allowed; use 1..1000")
+        T_world_hand = T_world_frame @ inv_T(self.kin.T_hand_frame(frame))
+        T_base_flange = self.T_base_world @ T_world_hand @ self.T_hand_link8
+        S, pe, re, n_cand = self._sweep(T_world_hand, T_base_flange, q_ref, n_q7)
+        if retry and S.shape[0] == 0 and cfg.n_q7_retry > n_q7:
+            S, pe, re, n_cand = self._sweep(T_world_hand, T_base_flange, q_ref, cfg.n_q7_retry)
+        status = (IKStatus.SOLVED if len(S) else
+                  IKStatus.NOT_CONVERGED if n_cand else IKStatus.NO_ANALYTIC_SOLUTION)
+        if validity is not None and len(S):
+            ok = np.asarray(validity.are_valid(S), bool)
+            S, pe, re = S[ok], pe[ok], re[ok]
+            status = IKStatus.SOLVED if len(S) else IKStatus.IN_COLLISION
+        T = np.broadcast_to(T_world_frame, (len(S), 4, 4))
+        return _ordered(S, pe, re, T, q_ref, cfg.dedupe_tol, frame, status)
+
+    def _sweep(self, T_world_hand, T_base_flange, q_ref, n_q7):
+        """Refined analytic solutions (k,7), pos_err (k,), rot_err (k,) over a q7 sweep, and
+        the number of analytic candidates within the limits."""
+        cfg = self.config
+        q7s = np.concatenate([[q_ref[6]], np.linspace(Q_MIN[6], Q_MAX[6], n_q7 + 2)[1:-1]])
+        cands = []
+        for q7 in q7s:
+            S = self._frankik.ik_full(T_base_flange, q_ref, float(q7))
+            cands.extend(S[np.all(np.isfinite(S), axis=1)])
+        args = self.kin.kernel_args()
+        sols, pes, res = [], [], []
+        for q in cands:
+            q = np.clip(q, Q_MIN, Q_MAX)
+            qr, pe, re = refine_kernel(q, T_world_hand, self.kin.hand_index, *args, Q_MIN, Q_MAX,
+                                       cfg.refine_iters, cfg.damping, cfg.tol_pos, cfg.tol_rot)
+            if pe <= cfg.tol_pos and re <= cfg.tol_rot:
+                sols.append(qr)
+                pes.append(pe)
+                res.append(re)
+        return np.array(sols).reshape(-1, 7), np.array(pes), np.array(res), len(cands)
+
+
+def _ordered(S, pe, re, T, q_ref, tol, frame, status) -> IKResult:
+    order = np.argsort(np.linalg.norm(S - q_ref, axis=1), kind="stable")
+    keep: list[int] = []
+    for i in order:
+        if all(np.max(np.abs(S[i] - S[k])) > tol for k in keep):
+            keep.append(int(i))
+    k = np.array(keep, np.int64)
+    return IKResult(S[k].reshape(-1, 7), pe[k], re[k], np.array(T)[k].reshape(-1, 4, 4), frame, status)
+
+
+@lru_cache(maxsize=8)
+def _default_ik(config: RobotConfig) -> PandaIK:
+    return PandaIK(_default_kin(config))
+
+
+def _solver(robot_config: RobotConfig | None, ik: PandaIK | None) -> PandaIK:
+    return ik or _default_ik(robot_config or RobotConfig())
+
+
+def ik_tcp(T_world_tcp: np.ndarray, q_ref: np.ndarray, n_q7: int | None = None,
+           robot_config: RobotConfig | None = None, ik: PandaIK | None = None, validity=None) -> IKResult:
+    """IK for the TCP (between the fingertips) at T_world_tcp (see `PandaIK.solve`)."""
+    return _solver(robot_config, ik).solve(T_world_tcp, "tcp", q_ref, n_q7, validity)
+
+
+def ik_camera(T_world_cam: np.ndarray, q_ref: np.ndarray, n_q7: int | None = None,
+              robot_config: RobotConfig | None = None, ik: PandaIK | None = None, validity=None) -> IKResult:
+    """IK for the wrist camera's optical frame (OpenCV convention) at T_world_cam."""
+    return _solver(robot_config, ik).solve(T_world_cam, "cam", q_ref, n_q7, validity)
+
+
+def ik_look_at(point: np.ndarray, distance: float, q_ref: np.ndarray, rng: np.random.Generator | None = None,
+               n_samples: int = 24, max_polar_deg: float = 80.0, n_q7: int = 6,
+               robot_config: RobotConfig | None = None, ik: PandaIK | None = None, validity=None) -> IKResult:
+    """Camera configurations looking at `point` [m] from `distance` [m].
+
+    Viewing directions are sampled on the spherical cap within max_polar_deg of straight down
+    (rng: explicit generator; None = a fixed Fibonacci pattern), each with 4 camera rolls;
+    solutions from all views are merged and ordered by joint distance to q_ref.
+    """
+    point = np.asarray(point, np.float64)
+    if point.shape != (3,) or not np.all(np.isfinite(point)):
+        raise CompassInputError(f"point must be 3 finite coordinates [m], got {point}")
+    if not (np.isfinite(distance) and 0.05 <= distance <= 2.0):
+        raise CompassInputError(f"distance {distance} m is not allowed; use 0.05..2 m")
+    if not 1 <= n_samples <= 10000:
+        raise CompassInputError(f"n_samples {n_samples} is not allowed; use 1..10000")
+    q_ref = check_q(q_ref, "q_ref")
+    solver = _solver(robot_config, ik)
+    cosmax = math.cos(math.radians(max_polar_deg))
+    if rng is None:
+        i = np.arange(n_samples) + 0.5
+        z = 1.0 - (1.0 - cosmax) * i / n_samples
+        phi = math.pi * (1.0 + 5**0.5) * i
+    else:
+        z = rng.uniform(cosmax, 1.0, n_samples)
+        phi = rng.uniform(0.0, 2.0 * math.pi, n_samples)
+    s = np.sqrt(np.maximum(0.0, 1.0 - z * z))
+    dirs = np.stack([s * np.cos(phi), s * np.sin(phi), z], 1)  # from the point up to the eye
+    sols, pes, res, Ts, statuses = [], [], [], [], set()
+    for d in dirs:
+        T0 = look_at(point + distance * d, point, up=(1.0, 0.0, 0.0) if d[2] > 0.99 else (0.0, 0.0, 1.0))
+        for roll in (0.0, 0.5 * math.pi, math.pi, 1.5 * math.pi):
+            c, sn = math.cos(roll), math.sin(roll)
+            Rz = np.array([[c, -sn, 0, 0], [sn, c, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1.0]])
+            r = solver.solve(T0 @ Rz, "cam", q_ref, n_q7, validity, retry=False)
+            sols.append(r.solutions)
+            pes.append(r.pos_err)
+            res.append(r.rot_err)
+            Ts.append(r.T_world_targets)
+            statuses.add(r.status)
+    status = next(s for s in IKStatus if s in statuses)  # the most preferred status of any view
+    return _ordered(np.vstack(sols), np.concatenate(pes), np.concatenate(res), np.concatenate(Ts),
+                    q_ref, solver.config.dedupe_tol, "cam", status)

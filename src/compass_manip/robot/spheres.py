@@ -1,0 +1,414 @@
+"""Collision spheres of the Panda, hand, fingers and camera housing, fitted to the model.
+
+The spheres are generated from the collision geometry of the compiled robot-only MuJoCo model
+(geoms with contype or conaffinity set: link meshes, hand mesh, camera_housing box, finger
+boxes). MuJoCo collides meshes through their convex hulls, so each hull (or box) is
+triangulated and subdivided to edges <= `edge_max` [m]. Candidate spheres sit on interior
+grid points with radius = depth below the hull surface + `protrusion` [m]; a greedy set cover
+picks centres, then each sphere's radius is set exactly so that every subdivided triangle
+(all three corners) and interior grid point lies inside one sphere: the whole hull surface is
+inside the union (a ball is convex). `padding` [m] is then added to every radius. Results are
+cached in .npz/.npy files keyed by a hash of the geometry and the fit parameters
+(COMPASS_CACHE_DIR, default ~/.cache/compass_manip); a cold fit takes a few seconds.
+"""
+from __future__ import annotations
+
+import hashlib
+import os
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numba as nb
+import numpy as np
+
+from ..errors import CompassInputError
+from ..geometry import quat_to_R
+from .kinematics import PandaKinematics, check_Q, fk_links_kernel
+from .model import GRIPPER_MAX_WIDTH, Q_HOME, Q_MAX, Q_MIN, RobotConfig, build_robot_spec, check_q
+
+
+@dataclass(frozen=True)
+class SphereFitConfig:
+    """Fit parameters [m]. protrusion: how far a candidate sphere may reach beyond the hull
+    (radius = depth of its centre below the hull surface + protrusion; larger = fewer, bigger
+    spheres); fine_links use fine_protrusion (wrist and hand: they pass close to each other
+    across joint 6 and reach into shelves and around objects); radius_max: largest radius;
+    edge_max: surface triangle edges; grid: candidate centre spacing; padding: added to every
+    radius; n_pair_samples / seed: configurations that find always-overlapping sphere pairs."""
+
+    protrusion: float = 0.015
+    fine_links: tuple[str, ...] = ("panda_link5", "panda_link6", "panda_link7", "hand/panda_hand",
+                                   "hand/panda_leftfinger", "hand/panda_rightfinger")
+    fine_protrusion: float = 0.006
+    radius_max: float = 0.12
+    edge_max: float = 0.01
+    grid: float = 0.01
+    padding: float = 0.001
+    n_pair_samples: int = 2000
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        if not (0.001 <= self.protrusion <= 0.1 and 0.001 <= self.fine_protrusion <= 0.1):
+            raise CompassInputError(
+                f"protrusion {self.protrusion} / {self.fine_protrusion} m is not allowed; use 0.001..0.1 m"
+            )
+        for name, lo, hi in (("radius_max", 0.005, 0.5), ("edge_max", 0.001, self.radius_max),
+                             ("grid", 0.002, self.radius_max), ("padding", 0.0, 0.05)):
+            if not lo <= getattr(self, name) <= hi:
+                raise CompassInputError(f"{name} {getattr(self, name)} m is not allowed; use {lo}..{hi} m")
+
+
+@dataclass(frozen=True, eq=False)
+class SphereModel:
+    """Spheres attached to link frames of `kinematics` (index = `kinematics.link_names`).
+
+    body_index (S,) link index; centers_local (S,3) [m] in the link frame; radii (S,) [m];
+    self_collision_pairs (P,2) sphere indices to test against each other (non-adjacent links,
+    not overlapping at Q_HOME nor in every sampled configuration).
+    """
+
+    kinematics: PandaKinematics
+    body_index: np.ndarray
+    centers_local: np.ndarray
+    radii: np.ndarray
+    self_collision_pairs: np.ndarray
+
+    @property
+    def n_spheres(self) -> int:
+        return int(self.radii.shape[0])
+
+    @property
+    def link_names(self) -> tuple[str, ...]:
+        return self.kinematics.link_names
+
+    def kernel_args(self) -> tuple:
+        """Arguments after Q for `sphere_centers_kernel`."""
+        return (*self.kinematics.kernel_args(), self.body_index, self.centers_local)
+
+    def sphere_centers(self, Q: np.ndarray) -> np.ndarray:
+        """World sphere centres (N,S,3) [m] for Q (N,7) [rad]."""
+        Q = check_Q(Q)
+        out = np.empty((Q.shape[0], self.n_spheres, 3))
+        return sphere_centers_kernel(Q, *self.kernel_args(), out)
+
+
+@nb.njit(cache=True)
+def sphere_centers_one(q, finger_pos, parent, T_parent_link, joint_kind, joint_index, axis, anchor,
+                       body_index, centers_local, links, out):
+    """World centres (S,3) of one configuration q (7,); links (L,4,4) is scratch space."""
+    fk_links_kernel(q, finger_pos, parent, T_parent_link, joint_kind, joint_index, axis, anchor, links)
+    for s in range(body_index.shape[0]):
+        T = links[body_index[s]]
+        c = centers_local[s]
+        for r in range(3):
+            out[s, r] = T[r, 0] * c[0] + T[r, 1] * c[1] + T[r, 2] * c[2] + T[r, 3]
+    return out
+
+
+@nb.njit(cache=True, parallel=True)
+def sphere_centers_kernel(Q, finger_pos, parent, T_parent_link, joint_kind, joint_index, axis, anchor,
+                          body_index, centers_local, out):
+    """World centres (N,S,3) for Q (N,7)."""
+    L = parent.shape[0]
+    for n in nb.prange(Q.shape[0]):
+        links = np.empty((L, 4, 4))
+        sphere_centers_one(Q[n], finger_pos, parent, T_parent_link, joint_kind, joint_index, axis,
+                           anchor, body_index, centers_local, links, out[n])
+    return out
+
+
+def sphere_centers(sphere_model: SphereModel, Q: np.ndarray) -> np.ndarray:
+    """World sphere centres (N,S,3) [m] for Q (N,7) [rad] (numba, parallel over N)."""
+    return sphere_model.sphere_centers(Q)
+
+
+def sphere_centers_world(sphere_model: SphereModel, q: np.ndarray) -> np.ndarray:
+    """World sphere centres (S,3) [m] for one configuration q (7,) [rad]."""
+    q = check_q(q)
+    return sphere_model.sphere_centers(q[None])[0]
+
+
+# --- geometry extraction ------------------------------------------------------------------
+def collision_hulls(model, link_names: tuple[str, ...]) -> list[list[np.ndarray]]:
+    """Per link: list of (V,3) point sets [m] in the link frame whose convex hulls collide."""
+    import mujoco
+
+    hulls: list[list[np.ndarray]] = [[] for _ in link_names]
+    for g in range(model.ngeom):
+        if model.geom_contype[g] == 0 and model.geom_conaffinity[g] == 0:
+            continue
+        name = model.body(int(model.geom_bodyid[g])).name
+        if name not in link_names:
+            continue
+        t = model.geom_type[g]
+        if t == mujoco.mjtGeom.mjGEOM_MESH:
+            k = int(model.geom_dataid[g])
+            a, n = int(model.mesh_vertadr[k]), int(model.mesh_vertnum[k])
+            P = np.asarray(model.mesh_vert[a : a + n], dtype=np.float64)
+        elif t == mujoco.mjtGeom.mjGEOM_BOX:
+            s = model.geom_size[g]
+            P = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)]) * s
+        else:
+            raise CompassInputError(f"collision geom type {int(t)} of {name} is not supported (mesh/box)")
+        R = quat_to_R(model.geom_quat[g])
+        hulls[link_names.index(name)].append(P @ R.T + model.geom_pos[g])
+    return hulls
+
+
+def _subdivide(P: np.ndarray, tris: np.ndarray, edge_max: float) -> tuple[np.ndarray, np.ndarray]:
+    """Longest-edge bisection until every triangle edge <= edge_max [m] (new points on the surface)."""
+    while True:
+        E = np.stack([np.linalg.norm(P[tris[:, (k + 1) % 3]] - P[tris[:, k]], axis=1) for k in range(3)], 1)
+        k = E.argmax(axis=1)
+        long = E[np.arange(len(k)), k] > edge_max
+        if not np.any(long):
+            return P, tris
+        T, k = tris[long], k[long]
+        r = np.arange(T.shape[0])
+        a, b, c = T[r, k], T[r, (k + 1) % 3], T[r, (k + 2) % 3]  # longest edge a-b, opposite c
+        mid = P.shape[0] + r
+        P = np.vstack([P, 0.5 * (P[a] + P[b])])
+        tris = np.vstack([tris[~long], np.stack([a, mid, c], 1), np.stack([mid, b, c], 1)])
+
+
+def _voxel_representatives(P: np.ndarray, size: float) -> np.ndarray:
+    """One point per occupied voxel of edge `size` [m] (the first point falling in it)."""
+    keys = np.floor(P / size).astype(np.int64)
+    _, first = np.unique(keys, axis=0, return_index=True)
+    return P[np.sort(first)]
+
+
+@nb.njit(cache=True)
+def _depth_below(P, equations):
+    """Distance [m] of points P (N,3) inside a convex hull to its surface (0 if outside);
+    equations (F,4): outward facet planes n.x + d = 0 (scipy ConvexHull)."""
+    out = np.empty(P.shape[0])
+    for i in range(P.shape[0]):
+        best = np.inf
+        for f in range(equations.shape[0]):
+            e = equations[f]
+            d = -(e[0] * P[i, 0] + e[1] * P[i, 1] + e[2] * P[i, 2] + e[3])
+            if d < best:
+                best = d
+        out[i] = max(best, 0.0)
+    return out
+
+
+@nb.njit(cache=True)
+def _greedy_cover(C, rc, E, w):
+    """Greedy weighted set cover of points E (M,3) (weights w) by candidate balls (C[k], rc[k]).
+
+    Gains are kept incrementally: O(K*M) distance tests overall, no (K,M) matrix. Returns the
+    chosen candidate indices, or an empty array if some point is out of every ball's reach.
+    """
+    K, M = C.shape[0], E.shape[0]
+    gain = np.zeros(K)
+    reached = np.zeros(M, np.bool_)
+    for k in range(K):
+        r2 = rc[k] * rc[k]
+        for e in range(M):
+            d2 = (C[k, 0] - E[e, 0]) ** 2 + (C[k, 1] - E[e, 1]) ** 2 + (C[k, 2] - E[e, 2]) ** 2
+            if d2 <= r2:
+                gain[k] += w[e]
+                reached[e] = True
+    if not reached.all():
+        return np.empty(0, np.int64)
+    covered = np.zeros(M, np.bool_)
+    n_left = M
+    out = []
+    new = np.empty(M, np.int64)
+    while n_left > 0:
+        k = int(np.argmax(gain))
+        out.append(k)
+        r2 = rc[k] * rc[k]
+        n_new = 0
+        for e in range(M):
+            if not covered[e]:
+                d2 = (C[k, 0] - E[e, 0]) ** 2 + (C[k, 1] - E[e, 1]) ** 2 + (C[k, 2] - E[e, 2]) ** 2
+                if d2 <= r2:
+                    covered[e] = True
+                    new[n_new] = e
+                    n_new += 1
+        n_left -= n_new
+        for j in range(K):  # remove the newly covered points from every candidate's gain
+            rj2 = rc[j] * rc[j]
+            for t in range(n_new):
+                e = new[t]
+                d2 = (C[j, 0] - E[e, 0]) ** 2 + (C[j, 1] - E[e, 1]) ** 2 + (C[j, 2] - E[e, 2]) ** 2
+                if d2 <= rj2:
+                    gain[j] -= w[e]
+    return np.array(out, np.int64)
+
+
+def _fit_link(hulls: list[np.ndarray], fit: SphereFitConfig, protrusion: float | None = None
+              ) -> tuple[np.ndarray, np.ndarray]:
+    """Sphere cover of the hull surfaces and interiors of one link: (K,3) centres, (K,) radii [m].
+
+    Greedy set cover of representative surface/interior points chooses the centres; the radii
+    are then set exactly so that every subdivided hull triangle and interior point lies inside
+    one sphere (the one needing the least growth).
+    """
+    from scipy.spatial import ConvexHull, Delaunay
+
+    protrusion = fit.protrusion if protrusion is None else protrusion
+    grid = min(fit.grid, protrusion)  # candidate spacing: finer for tighter fits
+    corners, tris, interior, depth = [], [], [], []
+    n = 0
+    for P in hulls:
+        h = ConvexHull(P)
+        V, T = _subdivide(P[h.vertices], np.searchsorted(h.vertices, h.simplices), fit.edge_max)
+        corners.append(V)
+        tris.append(T + n)
+        n += V.shape[0]
+        lo, hi = P.min(0), P.max(0)
+        mid = 0.5 * (lo + hi)  # grid through the bounding-box centre (thin boxes get a mid-plane)
+        axes = [mid[i] + grid * np.arange(-np.floor((mid[i] - lo[i]) / grid),
+                                          np.floor((hi[i] - mid[i]) / grid) + 1) for i in range(3)]
+        G = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
+        inside = G[Delaunay(P[h.vertices]).find_simplex(G) >= 0]
+        if inside.shape[0] == 0:
+            inside = P[h.vertices].mean(0, keepdims=True)
+        interior.append(inside)
+        depth.append(_depth_below(inside, h.equations))
+    V, T, C, depth = np.vstack(corners), np.vstack(tris), np.vstack(interior), np.concatenate(depth)
+    # centres: greedy set cover of representative surface / interior points by candidate spheres
+    # centred on interior grid points, each with radius = its depth below the hull + protrusion
+    Es, Ei = _voxel_representatives(V, 0.5 * grid), _voxel_representatives(C, 4.0 * grid)
+    E = np.vstack([Es, Ei])
+    w = np.concatenate([np.ones(len(Es)), np.full(len(Ei), 0.2)])
+    rc = np.minimum(depth + protrusion, fit.radius_max)
+    chosen = _greedy_cover(C, rc, E, w)
+    if chosen.shape[0] == 0:
+        raise CompassInputError("protrusion/radius_max too small to cover a link's geometry")
+    centers, r_cand = C[chosen], rc[chosen]
+    # exact radii: each triangle (all 3 corners) and interior point goes to the sphere that must
+    # grow least beyond its candidate radius; a sphere's radius is the farthest element it owns
+    dV = np.linalg.norm(V[:, None, :] - centers[None], axis=2)
+    need = np.vstack([np.maximum(np.maximum(dV[T[:, 0]], dV[T[:, 1]]), dV[T[:, 2]]),
+                      np.linalg.norm(C[:, None, :] - centers[None], axis=2)])
+    owner = np.argmin(np.maximum(need - r_cand, 0.0) + 1e-6 * need, axis=1)
+    radii = np.array([need[owner == k, k].max(initial=0.0) for k in range(len(centers))])
+    # drop redundant spheres: everything they hold already lies inside the others
+    keep = np.ones(len(centers), bool)
+    for k in np.argsort(radii):
+        others = keep.copy()
+        others[k] = False
+        if others.any() and np.all((need[:, others] <= radii[others]).any(axis=1)):
+            keep[k] = False
+    return centers[keep], radii[keep]
+
+
+def _geometry_hash(hulls: list[list[np.ndarray]], fit: SphereFitConfig) -> str:
+    h = hashlib.sha256(repr(fit).encode())
+    for link in hulls:
+        h.update(b"|")
+        for P in link:
+            h.update(np.ascontiguousarray(P, dtype=np.float64).tobytes())
+    return h.hexdigest()[:16]
+
+
+def _cached(name: str, compute) -> dict:
+    """Arrays saved as COMPASS_CACHE_DIR/name.npz (default ~/.cache/compass_manip), computed
+    by compute() -> dict of arrays when missing; written atomically (skipped if not writable)."""
+    folder = os.environ.get("COMPASS_CACHE_DIR", os.path.join(os.path.expanduser("~"), ".cache", "compass_manip"))
+    path = os.path.join(folder, f"{name}.npz")
+    if os.path.isfile(path):
+        with np.load(path) as z:
+            return {k: z[k] for k in z.files}
+    arrays = compute()
+    try:
+        os.makedirs(folder, exist_ok=True)
+        tmp = f"{path}.{os.getpid()}.tmp.npz"
+        np.savez(tmp, **arrays)
+        os.replace(tmp, path)
+    except OSError:  # read-only home: keep the result in memory only
+        pass
+    return arrays
+
+
+def fit_spheres(kin: PandaKinematics, fit: SphereFitConfig) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(body_index, centers_local, radii incl. padding) for the robot of `kin`, cached on disk."""
+    hulls = collision_hulls(build_robot_spec(kin.robot_config, actuators=False).compile(), kin.link_names)
+
+    def compute() -> dict:
+        bi, cs, rs = [], [], []
+        for i, link in enumerate(hulls):
+            if link:
+                fine = kin.link_names[i] in fit.fine_links
+                c, r = _fit_link(link, fit, fit.fine_protrusion if fine else fit.protrusion)
+                bi.append(np.full(len(r), i, np.int64))
+                cs.append(c)
+                rs.append(r + fit.padding)
+        return {"body_index": np.concatenate(bi), "centers_local": np.vstack(cs), "radii": np.concatenate(rs)}
+
+    z = _cached(f"panda_spheres_{_geometry_hash(hulls, fit)}", compute)
+    return z["body_index"], z["centers_local"], z["radii"]
+
+
+def weld_groups(kin: PandaKinematics) -> np.ndarray:
+    """Group id per link: links without an arm joint belong to their parent's group
+    (fingers join the hand: they only move with the gripper)."""
+    t = kin.tree
+    g = np.arange(t.n_links)
+    for i in range(t.n_links):
+        if t.joint_kind[i] != 1 and t.parent[i] >= 0:
+            g[i] = g[t.parent[i]]
+    return g
+
+
+def self_collision_pairs(kin: PandaKinematics, body_index: np.ndarray, centers: np.ndarray,
+                         radii: np.ndarray, fit: SphereFitConfig) -> np.ndarray:
+    """Sphere pairs on non-adjacent link groups that are apart at Q_HOME and in some sample."""
+    t = kin.tree
+    g = weld_groups(kin)
+    gb = g[body_index]
+    gp = np.where(t.parent >= 0, g[np.maximum(t.parent, 0)], -1)  # parent group of each link
+    parent_group = {int(g[i]): int(gp[i]) for i in range(t.n_links) if t.joint_kind[i] == 1}
+    ii, jj = np.triu_indices(len(radii), k=1)
+    a, b = gb[ii], gb[jj]
+    adjacent = (a == b) | np.array([parent_group.get(int(x)) == int(y) or parent_group.get(int(y)) == int(x)
+                                    for x, y in zip(a, b)], bool)
+    ii, jj = ii[~adjacent], jj[~adjacent]
+    rng = np.random.default_rng(fit.seed)
+    Q = np.vstack([Q_HOME, rng.uniform(Q_MIN, Q_MAX, (fit.n_pair_samples, 7))])
+    out = np.empty((Q.shape[0], len(radii), 3))
+    W = sphere_centers_kernel(Q, *kin.kernel_args(), body_index, centers, out)
+    n_overlap = _count_overlaps(W[1:], radii, ii, jj)
+    at_home = _count_overlaps(W[:1], radii, ii, jj) > 0
+    keep = ~at_home & (n_overlap < W.shape[0] - 1)
+    return np.stack([ii[keep], jj[keep]], 1).astype(np.int64)
+
+
+@nb.njit(cache=True)
+def _count_overlaps(W, radii, ii, jj):
+    """Per pair (ii[p], jj[p]): number of configurations in W (N,S,3) where the spheres overlap."""
+    out = np.zeros(ii.shape[0], np.int64)
+    for n in range(W.shape[0]):
+        for p in range(ii.shape[0]):
+            a, b = ii[p], jj[p]
+            d2 = (W[n, a, 0] - W[n, b, 0]) ** 2 + (W[n, a, 1] - W[n, b, 1]) ** 2 + (W[n, a, 2] - W[n, b, 2]) ** 2
+            if d2 < (radii[a] + radii[b]) ** 2:
+                out[p] += 1
+    return out
+
+
+@lru_cache(maxsize=8)
+def _cached_model(config: RobotConfig, finger_width: float, fit: SphereFitConfig) -> SphereModel:
+    kin = PandaKinematics(config, finger_width)
+    bi, c, r = fit_spheres(kin, fit)
+    # self-collision pairs do not depend on the base pose: cache them keyed by everything else
+    t = kin.tree
+    h = hashlib.sha256(repr((fit, kin.finger_pos)).encode())
+    for a in (bi, c, r, t.T_parent_link[1:], t.axis, t.anchor, t.parent, t.joint_kind):
+        h.update(np.ascontiguousarray(a).tobytes())
+    pairs = _cached(f"panda_selfpairs_{h.hexdigest()[:16]}",
+                    lambda: {"pairs": self_collision_pairs(kin, bi, c, r, fit)})["pairs"]
+    for a in (bi, c, r, pairs):
+        a.setflags(write=False)
+    return SphereModel(kin, bi, c, r, pairs)
+
+
+def panda_sphere_model(robot_config: RobotConfig | None = None, finger_width: float = GRIPPER_MAX_WIDTH,
+                       fit: SphereFitConfig | None = None) -> SphereModel:
+    """Sphere model of the Panda + hand (fingers at finger_width [m]) + camera housing."""
+    return _cached_model(robot_config or RobotConfig(), float(finger_width), fit or SphereFitConfig())
