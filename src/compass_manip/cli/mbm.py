@@ -20,6 +20,8 @@ def add_arguments(parser) -> None:
     parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     parser.add_argument("--backend", choices=("numba", "ompl"), default="numba", help="planner backend")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
+    parser.add_argument("--explain", action="store_true",
+                        help="list which robot link touches which obstacle for each rejected problem")
 
 
 def _fmt(x: float) -> str:
@@ -31,16 +33,15 @@ def run(args) -> int:
     from tqdm import tqdm
 
     from ..errors import CompassInputError
-    from ..motion.mbm import family_stats, load_problems, solve_problem
+    from ..motion.mbm import Rejection, explain_invalid, family_stats, load_problems, solve_problem
     from ..motion.planner import PlannerConfig
     from ..robot.spheres import panda_sphere_model
 
     if not 0.0 < args.validate_resolution <= 0.5:
         raise CompassInputError(f"--validate-resolution {args.validate_resolution} rad is not allowed; use 0 < r <= 0.5")
-    kw = {"time_budget": args.time_budget, "seed": args.seed, "backend": args.backend}
-    if args.resolution is not None:
-        kw["edge_resolution"] = args.resolution
-    config = PlannerConfig(**kw)
+    edge = PlannerConfig().edge_resolution if args.resolution is None else args.resolution
+    config = PlannerConfig(time_budget=args.time_budget, seed=args.seed, backend=args.backend,
+                           edge_resolution=edge, verify_resolution=min(args.validate_resolution, edge))
     problems = load_problems(args.path)
     spheres = panda_sphere_model()
     outcomes = []
@@ -65,6 +66,12 @@ def run(args) -> int:
             reasons[key] = reasons.get(key, 0) + 1
     for (fam, why), n in sorted(reasons.items()):
         print(f"rejected: {fam}: {n} x {why}")
+    if args.explain:
+        for p, o in zip(problems, outcomes):
+            if o.rejection in (Rejection.START_IN_COLLISION, Rejection.GOAL_IN_COLLISION):
+                q = p.q_start if o.rejection is Rejection.START_IN_COLLISION else p.q_goals[0]
+                why = "; ".join(explain_invalid(p, spheres, q)) or "no sphere contact found"
+                print(f"{p.family} {p.name} {o.rejection.value}: {why}")
     for s in stats:
         if s.path_invalid:
             print(f"warning: {s.family}: {s.path_invalid} returned paths failed the re-check "

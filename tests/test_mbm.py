@@ -1,0 +1,185 @@
+"""MotionBenchMaker loading, solving and the `compass mbm` command."""
+import json
+import os
+import tarfile
+
+import numpy as np
+import pytest
+
+from compass_manip.cli import main
+from compass_manip.errors import CompassInputError
+from compass_manip.motion.mbm import MbmProblem, Rejection, family_stats, load_problems, path_is_valid, solve_problem
+from compass_manip.motion.planner import PlannerConfig
+
+ARCHIVE = "/work/shared/external/mbm-panda.tar.bz2"
+FAMILIES = ("bookshelf_small", "box", "cage", "table_pick")
+N_PER_FAMILY = 2
+
+pytestmark = pytest.mark.skipif(not os.path.isfile(ARCHIVE), reason="shared MBM archive not present")
+
+
+@pytest.fixture(scope="module")
+def subset(tmp_path_factory) -> str:
+    """The first N_PER_FAMILY problems of each family, extracted to family folders."""
+    root = tmp_path_factory.mktemp("mbm")
+    wanted = {f"{k}{i:04d}.yaml" for k in ("scene", "request") for i in range(1, N_PER_FAMILY + 1)}
+    with tarfile.open(ARCHIVE, "r:bz2") as tar:
+        for m in tar.getmembers():
+            if m.isfile() and os.path.basename(m.name) in wanted:
+                dest = root / os.path.basename(os.path.dirname(m.name)) / os.path.basename(m.name)
+                dest.parent.mkdir(parents=True, exist_ok=True)
+                dest.write_bytes(tar.extractfile(m).read())
+    return str(root)
+
+
+def test_subset_loads_per_family(subset):
+    problems = load_problems(subset)
+    assert [p.family for p in problems] == [f for f in FAMILIES for _ in range(N_PER_FAMILY)]
+    assert [p.name for p in problems[:2]] == ["0001", "0002"]
+    for p in problems:
+        assert p.q_start.shape == (7,) and p.q_goals.shape[1] == 7 and len(p.boxes) >= 1
+        assert len(p.obstacle_ids) == len(p.boxes) + len(p.cylinders) + len(p.spheres)
+
+
+def test_bookshelf_0001_golden_values(subset):
+    p = load_problems(subset)[0]
+    np.testing.assert_allclose(p.q_start, [0, -0.785, 0, -2.356, 0, 1.571, 0.785])
+    np.testing.assert_allclose(p.q_goals[0, :2], [1.48904932702624, -0.1466710603206631])
+    # shelf_bottom: box 1.2 x 1 x 0.04 m, yawed by 2 * atan2(-0.5234, 0.8521) about z
+    i = p.obstacle_ids.index("shelf_bottom")
+    T, half = p.boxes[i]
+    np.testing.assert_allclose(half, [0.6, 0.5, 0.02])
+    np.testing.assert_allclose(T[:3, 3], [0.5896088862799895, -1.012333107355894, 0.2179866994332423])
+    yaw = 2 * np.arctan2(-0.5233762232815127, 0.8521017127688338)
+    np.testing.assert_allclose(T[:3, :3], [[np.cos(yaw), -np.sin(yaw), 0], [np.sin(yaw), np.cos(yaw), 0], [0, 0, 1]], atol=1e-9)
+    # Can1: cylinder dimensions [height 0.14, radius 0.03]
+    j = p.obstacle_ids.index("Can1") - len(p.boxes)
+    _, r, hl = p.cylinders[j]
+    assert (r, hl) == pytest.approx((0.03, 0.07))
+
+
+def test_archive_and_folder_give_the_same_problems(subset, tmp_path):
+    path = tmp_path / "small.tar.bz2"
+    with tarfile.open(path, "w:bz2") as tar:
+        tar.add(subset, arcname="problems")
+    a, b = load_problems(subset), load_problems(str(path))
+    assert [(p.family, p.name) for p in a] == [(p.family, p.name) for p in b]
+    for p, q in zip(a, b):
+        np.testing.assert_array_equal(p.q_goals, q.q_goals)
+        np.testing.assert_array_equal(p.boxes[0][0], q.boxes[0][0])
+
+
+def test_object_pose_mapping_positions_and_sphere(tmp_path):
+    (tmp_path / "scene0007.yaml").write_text(
+        "world:\n  collision_objects:\n"
+        "    - id: ball\n      pose: {position: {x: 1, y: 0, z: 0}, orientation: {x: 0, y: 0, z: 1, w: 0}}\n"
+        "      primitives: [{type: sphere, dimensions: [0.1]}]\n"
+        "      primitive_poses: [{position: [0.5, 0, 0.2], orientation: [0, 0, 0, 1]}]\n"
+    )
+    joints = [f"panda_joint{i}" for i in range(1, 8)]
+    (tmp_path / "request0007.yaml").write_text(
+        f"start_state: {{joint_state: {{name: {joints}, position: [0, 0, 0, -1, 0, 1, 0]}}}}\n"
+        "goal_constraints:\n  - joint_constraints:\n"
+        + "".join(f"      - {{joint_name: {j}, position: 0.5}}\n" for j in joints[::-1])
+    )
+    (p,) = load_problems(str(tmp_path))
+    assert p.family == tmp_path.name and p.name == "0007" and p.obstacle_ids == ("ball",)
+    c, r = p.spheres[0]
+    np.testing.assert_allclose(c, [0.5, 0.0, 0.2])  # (1,0,0) + Rz(pi) (0.5,0,0.2)
+    assert r == 0.1
+    np.testing.assert_allclose(p.q_goals, np.full((1, 7), 0.5))
+
+
+def test_missing_request_and_bad_paths(tmp_path):
+    (tmp_path / "scene0001.yaml").write_text("world: {collision_objects: []}\n")
+    with pytest.raises(CompassInputError, match="request0001"):
+        load_problems(str(tmp_path))
+    with pytest.raises(CompassInputError, match="no such file"):
+        load_problems(str(tmp_path / "missing"))
+    bad = tmp_path / "broken.tar.bz2"
+    bad.write_bytes(b"not an archive")
+    with pytest.raises(CompassInputError, match="archive"):
+        load_problems(str(bad))
+
+
+def test_solve_subset_paths_valid(subset):
+    from compass_manip.robot.spheres import panda_sphere_model
+
+    sm = panda_sphere_model()
+    problems = load_problems(subset)
+    outcomes = [solve_problem(p, sm, PlannerConfig(time_budget=5.0), np.random.default_rng(i))
+                for i, p in enumerate(problems)]
+    for o in outcomes:
+        assert not o.path_invalid
+        assert o.solved == (o.rejection is None)  # every accepted problem is solved
+        assert (o.rejection is None) == np.isfinite(o.plan_ms)
+    stats = family_stats(outcomes)
+    assert [s.family for s in stats] == list(FAMILIES)
+    for s in stats:
+        assert s.problems == N_PER_FAMILY and s.solved + s.rejected == N_PER_FAMILY
+
+
+def test_out_of_limit_goal_is_rejected_not_raised(subset):
+    p = load_problems(subset)[0]
+    bad = MbmProblem(p.family, p.name, p.boxes, p.cylinders, p.spheres, p.q_start,
+                     np.r_[p.q_goals[0, :3], 0.3, p.q_goals[0, 4:]][None], p.obstacle_ids)
+    o = solve_problem(bad, None, PlannerConfig(), np.random.default_rng(0))
+    assert o.rejection is Rejection.GOAL_OUTSIDE_LIMITS and not o.solved
+
+
+def test_path_is_valid_detects_a_collision(subset):
+    from compass_manip.motion.mbm import problem_validity
+    from compass_manip.robot.spheres import panda_sphere_model
+
+    p = load_problems(subset)[0]  # bookshelf: a straight line through the shelf is blocked
+    v = problem_validity(p, panda_sphere_model())
+    far = p.q_start.copy()
+    far[0] = -2.5
+    assert path_is_valid(np.stack([p.q_start, p.q_start]), v, 0.005)
+    assert path_is_valid(np.stack([p.q_start, far]), v, 0.005) == v.edge_valid(p.q_start, far, 0.005)
+
+
+def test_cli_json_shape(subset, capsys):
+    assert main(["mbm", subset, "--json", "--no-progress"]) == 0
+    lines = capsys.readouterr().out.strip().splitlines()
+    assert len(lines) == len(FAMILIES)
+    for line, fam in zip(lines, FAMILIES):
+        d = json.loads(line)
+        assert set(d) == {"family", "problems", "rejected", "solved", "plan_ms_median", "plan_ms_p90"}
+        assert d["family"] == fam and d["problems"] == N_PER_FAMILY
+        assert d["solved"] + d["rejected"] == N_PER_FAMILY
+
+
+def test_cli_table(subset, capsys):
+    assert main(["mbm", subset, "--no-progress"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[0].split()[:4] == ["family", "problems", "rejected", "solved"]
+    assert [l.split()[0] for l in out[1:5]] == list(FAMILIES)
+
+
+@pytest.mark.parametrize("name", ["missing_dir", "bad.tar.bz2"])
+def test_cli_bad_path_exit_2_one_line(tmp_path, capsys, name):
+    path = tmp_path / name
+    if name.endswith(".bz2"):
+        path.write_bytes(b"garbage")
+    assert main(["mbm", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("compass mbm: error: ") and str(path) in err
+
+
+def test_explain_names_the_link_and_the_obstacle(subset):
+    from compass_manip.geometry import make_T
+    from compass_manip.motion.mbm import explain_invalid
+    from compass_manip.robot.kinematics import PandaKinematics
+    from compass_manip.robot.spheres import panda_sphere_model
+
+    p = load_problems(subset)[0]
+    c = PandaKinematics().T_world_hand(p.q_start)[:3, 3]
+    boxed = MbmProblem(p.family, p.name, ((make_T(t=c), np.full(3, 0.03)),), (), (), p.q_start,
+                       p.q_goals, ("wrist_box",))
+    sm = panda_sphere_model()
+    why = explain_invalid(boxed, sm, p.q_start)
+    assert why and all("'wrist_box'" in w for w in why if not w.startswith("self:"))
+    assert any(w.startswith("hand/panda_hand touches 'wrist_box'") for w in why)
+    o = solve_problem(boxed, sm, PlannerConfig(), np.random.default_rng(0))
+    assert o.rejection is Rejection.START_IN_COLLISION
