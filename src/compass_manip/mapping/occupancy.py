@@ -60,8 +60,8 @@ class MapConfig:
     (2: about 2x less CPU, 99.97 % / 99.8 %).
     """
 
-    box_min: tuple[float, float, float] = (-0.3, -0.8, -0.05)
-    box_max: tuple[float, float, float] = (1.1, 0.8, 1.25)
+    box_min: tuple[float, float, float] = (-0.6, -0.8, -0.05)
+    box_max: tuple[float, float, float] = (1.1, 0.8, 1.3)
     resolution: float = 0.01
     prob_hit: float = 0.7
     prob_miss: float = 0.4
