@@ -125,3 +125,10 @@ def test_camera_is_configurable():
         assert (np.abs(f.depth[hit] - rc[hit]) <= 1e-3).mean() >= 0.999
     finally:
         w.close()
+
+
+def test_generator_start_camera_matches_the_home_pose(world4):
+    from compass_manip.sim.levels import START_CAMERA_POS
+
+    world4.set_q(Q_HOME)
+    assert np.linalg.norm(world4.T_world_cam()[:3, 3] - START_CAMERA_POS) < 0.005

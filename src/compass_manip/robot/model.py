@@ -32,7 +32,7 @@ QDD_MAX = np.array([15.0, 7.5, 10.0, 12.5, 15.0, 20.0, 20.0])
 QDDD_MAX = np.array([7500.0, 3750.0, 5000.0, 6250.0, 7500.0, 10000.0, 10000.0])
 
 #: Home configuration [rad]: the wrist camera looks horizontally along +x into the
-#: workspace in front of the robot (camera at about (0.31, 0, 0.67) m, optical axis level).
+#: workspace in front of the robot (camera at about (0.29, 0, 0.70) m, optical axis level).
 Q_HOME = np.array([0.0, -1.1, 0.0, -2.9, 0.0, 3.37, 0.785])
 
 #: Hand flange -> TCP (between the fingertips) [m].

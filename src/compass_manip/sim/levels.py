@@ -30,7 +30,7 @@ CLUTTER_PALETTE = (
 OBSTACLE_RGBA = (0.4, 0.4, 0.45, 1.0)
 #: The start camera (robot.model.Q_HOME) sits near here [m]; occluders are placed on the
 #: line from it to the target.
-START_CAMERA_POS = np.array([0.31, 0.0, 0.67])
+START_CAMERA_POS = np.array([0.291, 0.0, 0.696])
 
 
 @dataclass(frozen=True)
