@@ -136,13 +136,17 @@ def main() -> None:
     _emit("motion.is_valid_us", t, "us")
     # edges of 0.5 rad between random free configurations
     free = Q[:20_000][vc.are_valid(Q[:20_000])][:400]
-    t = []
-    for q in free:
-        q1 = np.clip(q + rng.uniform(-0.5, 0.5, 7), Q_MIN, Q_MAX)
-        t0 = time.perf_counter()
-        vc.edge_valid(q, q1)
-        t.append((time.perf_counter() - t0) * 1e6)
-    _emit("motion.edge_valid_0.5rad_us", t, "us")
+    ends = [np.clip(q + rng.uniform(-0.5, 0.5, 7), Q_MIN, Q_MAX) for q in free]
+    vc.edge_valid(free[0], ends[0], 0.005, adaptive=True)
+    for name, res, adaptive in (("motion.edge_valid_0.5rad_us", None, False),
+                                ("motion.edge_valid_0.5rad_fine_us", 0.005, False),
+                                ("motion.edge_valid_0.5rad_fine_adaptive_us", 0.005, True)):
+        t = []
+        for q, q1 in zip(free, ends):
+            t0 = time.perf_counter()
+            vc.edge_valid(q, q1, res, adaptive=adaptive)
+            t.append((time.perf_counter() - t0) * 1e6)
+        _emit(name, t, "us")
 
 
 if __name__ == "__main__":

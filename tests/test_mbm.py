@@ -8,7 +8,16 @@ import pytest
 
 from compass_manip.cli import main
 from compass_manip.errors import CompassInputError
-from compass_manip.motion.mbm import MbmProblem, Rejection, family_stats, load_problems, path_is_valid, solve_problem
+from compass_manip.motion.mbm import (
+    FINE_FIT,
+    MbmOutcome,
+    MbmProblem,
+    Rejection,
+    family_stats,
+    load_problems,
+    path_is_valid,
+    solve_problem,
+)
 from compass_manip.motion.planner import PlannerConfig
 
 ARCHIVE = "/work/shared/external/mbm-panda.tar.bz2"
@@ -18,18 +27,33 @@ N_PER_FAMILY = 2
 pytestmark = pytest.mark.skipif(not os.path.isfile(ARCHIVE), reason="shared MBM archive not present")
 
 
-@pytest.fixture(scope="module")
-def subset(tmp_path_factory) -> str:
-    """The first N_PER_FAMILY problems of each family, extracted to family folders."""
-    root = tmp_path_factory.mktemp("mbm")
-    wanted = {f"{k}{i:04d}.yaml" for k in ("scene", "request") for i in range(1, N_PER_FAMILY + 1)}
+def _extract(root, numbers, family_filter=None) -> str:
+    """Problems `numbers` of each family (or of the families accepted by family_filter)."""
+    wanted = {f"{k}{i:04d}.yaml" for k in ("scene", "request") for i in numbers}
     with tarfile.open(ARCHIVE, "r:bz2") as tar:
         for m in tar.getmembers():
-            if m.isfile() and os.path.basename(m.name) in wanted:
-                dest = root / os.path.basename(os.path.dirname(m.name)) / os.path.basename(m.name)
+            family = os.path.basename(os.path.dirname(m.name))
+            if m.isfile() and os.path.basename(m.name) in wanted and (family_filter is None or family_filter(family)):
+                dest = root / family / os.path.basename(m.name)
                 dest.parent.mkdir(parents=True, exist_ok=True)
                 dest.write_bytes(tar.extractfile(m).read())
     return str(root)
+
+
+@pytest.fixture(scope="module")
+def subset(tmp_path_factory) -> str:
+    """The first N_PER_FAMILY problems of each family, extracted to family folders."""
+    return _extract(tmp_path_factory.mktemp("mbm"), range(1, N_PER_FAMILY + 1))
+
+
+@pytest.fixture(scope="module")
+def refined(tmp_path_factory):
+    """bookshelf_small 0069 and table_pick 0041: goals the default spheres reject (the wrist /
+    hand spheres overshoot by a few mm) but that are 6.5 and 3.2 mm clear in MuJoCo."""
+    root = tmp_path_factory.mktemp("mbm_refined")
+    _extract(root, [69], lambda f: f.startswith("bookshelf"))
+    _extract(root, [41], lambda f: f.startswith("table_pick"))
+    return load_problems(str(root))
 
 
 def test_subset_loads_per_family(subset):
@@ -38,6 +62,7 @@ def test_subset_loads_per_family(subset):
     assert [p.name for p in problems[:2]] == ["0001", "0002"]
     for p in problems:
         assert p.q_start.shape == (7,) and p.q_goals.shape[1] == 7 and len(p.boxes) >= 1
+        assert p.finger_width == pytest.approx(0.13)  # both finger joints at 0.065 m
         assert len(p.obstacle_ids) == len(p.boxes) + len(p.cylinders) + len(p.spheres)
 
 
@@ -88,6 +113,17 @@ def test_object_pose_mapping_positions_and_sphere(tmp_path):
     np.testing.assert_allclose(c, [0.5, 0.0, 0.2])  # (1,0,0) + Rz(pi) (0.5,0,0.2)
     assert r == 0.1
     np.testing.assert_allclose(p.q_goals, np.full((1, 7), 0.5))
+    assert p.finger_width == 0.08  # no finger joint in the start state: the real maximum opening
+    request = (tmp_path / "request0007.yaml").read_text()
+    (tmp_path / "request0007.yaml").write_text(request.replace(
+        "position: [0, 0, 0, -1, 0, 1, 0]}", "position: [0, 0, 0, -1, 0, 1, 0, 0.01, 0.02]}").replace(
+        f"name: {joints}", f"name: {joints + ['panda_finger_joint1', 'panda_finger_joint2']}"))
+    assert load_problems(str(tmp_path))[0].finger_width == pytest.approx(0.03)
+    (tmp_path / "request0007.yaml").write_text(request.replace(
+        "position: [0, 0, 0, -1, 0, 1, 0]}", "position: [0, 0, 0, -1, 0, 1, 0, 0.15, 0.15]}").replace(
+        f"name: {joints}", f"name: {joints + ['panda_finger_joint1', 'panda_finger_joint2']}"))
+    with pytest.raises(CompassInputError, match="finger opening 0.3 m"):
+        load_problems(str(tmp_path))
 
 
 def test_missing_request_and_bad_paths(tmp_path):
@@ -105,8 +141,8 @@ def test_missing_request_and_bad_paths(tmp_path):
 def test_solve_subset_paths_valid(subset):
     from compass_manip.robot.spheres import panda_sphere_model
 
-    sm = panda_sphere_model()
     problems = load_problems(subset)
+    sm = panda_sphere_model(finger_width=problems[0].finger_width)
     outcomes = [solve_problem(p, sm, PlannerConfig(time_budget=5.0), np.random.default_rng(i))
                 for i, p in enumerate(problems)]
     for o in outcomes:
@@ -125,6 +161,12 @@ def test_out_of_limit_goal_is_rejected_not_raised(subset):
                      np.r_[p.q_goals[0, :3], 0.3, p.q_goals[0, 4:]][None], p.obstacle_ids)
     o = solve_problem(bad, None, PlannerConfig(), np.random.default_rng(0))
     assert o.rejection is Rejection.GOAL_OUTSIDE_LIMITS and not o.solved
+    # counted as outside_limits, not as rejected (in collision)
+    ok = MbmOutcome(p.family, "x", None, True, False, 2.0, 3)
+    hit = MbmOutcome(p.family, "y", Rejection.GOAL_IN_COLLISION, False, False, float("nan"), 0)
+    (s,) = family_stats([o, ok, hit, ok])
+    assert (s.problems, s.rejected, s.outside_limits, s.solved, s.plan_ms_median) == (4, 1, 1, 2, 2.0)
+    assert s.as_json()["outside_limits"] == 1 and s.as_json()["rejected"] == 1
 
 
 def test_path_is_valid_detects_a_collision(subset):
@@ -145,16 +187,18 @@ def test_cli_json_shape(subset, capsys):
     assert len(lines) == len(FAMILIES)
     for line, fam in zip(lines, FAMILIES):
         d = json.loads(line)
-        assert set(d) == {"family", "problems", "rejected", "solved", "plan_ms_median", "plan_ms_p90"}
+        assert set(d) == {"family", "problems", "rejected", "outside_limits", "solved", "plan_ms_median",
+                          "plan_ms_p90"}
         assert d["family"] == fam and d["problems"] == N_PER_FAMILY
-        assert d["solved"] + d["rejected"] == N_PER_FAMILY
+        assert d["solved"] + d["rejected"] + d["outside_limits"] == N_PER_FAMILY
 
 
 def test_cli_table(subset, capsys):
     assert main(["mbm", subset, "--no-progress"]) == 0
     out = capsys.readouterr().out.splitlines()
-    assert out[0].split()[:4] == ["family", "problems", "rejected", "solved"]
+    assert out[0].split()[:5] == ["family", "problems", "rejected", "solved", "outside_limits"]
     assert [l.split()[0] for l in out[1:5]] == list(FAMILIES)
+    assert any(l.startswith("finger opening from each problem's start state: 0.130 m") for l in out)
 
 
 @pytest.mark.parametrize("name", ["missing_dir", "bad.tar.bz2"])
@@ -183,3 +227,93 @@ def test_explain_names_the_link_and_the_obstacle(subset):
     assert any(w.startswith("hand/panda_hand touches 'wrist_box'") for w in why)
     o = solve_problem(boxed, sm, PlannerConfig(), np.random.default_rng(0))
     assert o.rejection is Rejection.START_IN_COLLISION
+
+
+def _mujoco_scene(p: MbmProblem):
+    """Robot + the problem's obstacles as MuJoCo geoms: (model, data, obstacle geom ids)."""
+    import mujoco
+
+    from compass_manip.geometry import R_to_quat
+    from compass_manip.robot.model import build_robot_spec
+
+    spec = build_robot_spec(actuators=False)
+    G = mujoco.mjtGeom
+    for i, (T, h) in enumerate(p.boxes):
+        spec.worldbody.add_geom(name=f"obs_b{i}", type=G.mjGEOM_BOX, size=list(h), pos=list(T[:3, 3]),
+                                quat=list(R_to_quat(T[:3, :3])))
+    for i, (T, r, h) in enumerate(p.cylinders):
+        spec.worldbody.add_geom(name=f"obs_c{i}", type=G.mjGEOM_CYLINDER, size=[r, h, 0], pos=list(T[:3, 3]),
+                                quat=list(R_to_quat(T[:3, :3])))
+    for i, (c, r) in enumerate(p.spheres):
+        spec.worldbody.add_geom(name=f"obs_s{i}", type=G.mjGEOM_SPHERE, size=[r, 0, 0], pos=list(c))
+    m = spec.compile()
+    obstacles = {g for g in range(m.ngeom) if m.geom(g).name.startswith("obs_")}
+    assert len(obstacles) == len(p.boxes) + len(p.cylinders) + len(p.spheres)
+    return m, mujoco.MjData(m), obstacles
+
+
+def _true_clearance(m, d, obstacles, q, width):
+    """Smallest MuJoCo signed distance [m] between moving robot geoms and the obstacles."""
+    import mujoco
+
+    d.qpos[:7] = q
+    d.qpos[7:9] = 0.5 * width
+    mujoco.mj_kinematics(m, d)
+    base = m.body("panda_link0").id
+    robot = [g for g in range(m.ngeom) if g not in obstacles and m.geom_bodyid[g] != base
+             and (m.geom_contype[g] or m.geom_conaffinity[g])]
+    ft = np.zeros(6)
+    return min(mujoco.mj_geomDistance(m, d, a, b, 0.05, ft) for a in robot for b in obstacles)
+
+
+def test_fine_model_accepts_refined_goals_and_stays_conservative(refined):
+    """The fine spheres accept goals the default ones reject; near those goals (where the fine
+    model matters) every configuration it calls free is free in MuJoCo at the same opening."""
+    from compass_manip.motion.mbm import problem_validity
+    from compass_manip.robot.spheres import panda_sphere_model
+
+    rng = np.random.default_rng(3)
+    n_free = n_hit = 0
+    for p in refined:
+        coarse = panda_sphere_model(finger_width=p.finger_width)
+        fine = panda_sphere_model(finger_width=p.finger_width, fit=FINE_FIT)
+        assert fine.n_spheres > coarse.n_spheres
+        v_coarse, v_fine = problem_validity(p, coarse), problem_validity(p, fine)
+        assert not v_coarse.is_valid(p.q_goals[0]) and v_fine.is_valid(p.q_goals[0])
+        assert v_fine.clearance(p.q_goals[0]) > v_coarse.clearance(p.q_goals[0]) + 0.002
+        m, d, obstacles = _mujoco_scene(p)
+        assert _true_clearance(m, d, obstacles, p.q_goals[0], p.finger_width) > 0.003
+        Q = np.clip(p.q_goals[0] + rng.normal(0.0, 0.03, (150, 7)), *_limits())
+        free = v_fine.are_valid(Q)
+        true = np.array([_true_clearance(m, d, obstacles, q, p.finger_width) for q in Q])
+        assert not np.any(free & (true < 0)), "fine spheres free where MuJoCo penetrates"
+        n_free += int(free.sum())
+        n_hit += int((true < 0).sum())
+    assert n_free > 30 and n_hit > 30  # both verdicts occur near these goals
+
+
+def _limits():
+    from compass_manip.robot.model import Q_MAX, Q_MIN
+
+    return Q_MIN, Q_MAX
+
+
+def test_refinement_solves_with_the_fine_model(refined):
+    from compass_manip.motion.mbm import explain_invalid, problem_validity
+    from compass_manip.robot.spheres import panda_sphere_model
+
+    p = refined[0]
+    coarse = panda_sphere_model(finger_width=p.finger_width)
+    fine = panda_sphere_model(finger_width=p.finger_width, fit=FINE_FIT)
+    cfg = PlannerConfig(time_budget=5.0)
+    o = solve_problem(p, coarse, cfg, np.random.default_rng(0))
+    assert o.rejection is Rejection.GOAL_IN_COLLISION and not o.refined
+    o = solve_problem(p, coarse, cfg, np.random.default_rng(0), fine_model=lambda: fine)
+    assert o.rejection is None and o.refined and o.solved and not o.path_invalid
+    assert family_stats([o])[0].refined == 1
+    why = explain_invalid(p, coarse, p.q_goals[0], fine)
+    assert why and all("fine spheres +" in w for w in why if not w.startswith("self:"))
+    # table_pick 0041: the hand's spheres reject the goal, the fine ones accept and plan it
+    o = solve_problem(refined[1], coarse, cfg, np.random.default_rng(0), fine_model=lambda: fine)
+    assert o.refined and o.solved
+    assert problem_validity(refined[1], fine).is_valid(refined[1].q_start)

@@ -19,7 +19,16 @@ def _local_hulls(sm):
     return m, S.collision_hulls(m, sm.link_names)
 
 
-def test_every_collision_vertex_and_hull_surface_point_is_covered(sm):
+@pytest.fixture(scope="module")
+def sm_fine():
+    from compass_manip.motion.mbm import FINE_FIT
+
+    return S.panda_sphere_model(finger_width=0.13, fit=FINE_FIT)
+
+
+@pytest.mark.parametrize("model", ["sm", "sm_fine"])
+def test_every_collision_vertex_and_hull_surface_point_is_covered(model, request):
+    sm = request.getfixturevalue(model)
     m, hulls = _local_hulls(sm)
     rng = np.random.default_rng(0)
     colliding = [g for g in range(m.ngeom) if m.geom_contype[g] or m.geom_conaffinity[g]]
@@ -106,3 +115,37 @@ def test_cache_round_trip(tmp_path, monkeypatch, sm):
     b = S.fit_spheres(sm.kinematics, fit)
     for x, y in zip(a, b):
         np.testing.assert_array_equal(x, y)
+
+
+def _box_overshoot(lo, hi, centers, radii, n=2000):
+    """Largest distance [m] from the box [lo, hi] of a point of the spheres (sampled surfaces)."""
+    u = np.random.default_rng(0).normal(size=(n, 3))
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    X = centers[:, None, :] + radii[:, None, None] * u[None]
+    return float(np.linalg.norm(np.maximum(np.maximum(lo - X, X - hi), 0.0), axis=2).max())
+
+
+def test_shorter_surface_edges_bulge_less_beyond_a_finger_box():
+    lo, hi = np.array([-0.012, 0.0, 0.01]), np.array([0.012, 0.03, 0.054])  # Panda finger collision box
+    box = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+    out = {}
+    for edge in (0.01, 0.004):
+        fit = S.SphereFitConfig(fine_protrusion=0.002, fine_edge_max=edge, padding=0.0)
+        c, r = S._fit_link([box], fit, fit.fine_protrusion, fit.fine_edge_max)
+        d = np.linalg.norm(box[:, None] - c[None], axis=2) - r
+        assert np.all(d.min(axis=1) <= 1e-12)  # corners covered
+        out[edge] = _box_overshoot(lo, hi, c, r)
+    assert out[0.004] < 0.75 * out[0.01] and out[0.004] < 0.004
+    assert "fine_edge_max" not in S.SphereFitConfig().key()  # cache names of older fits unchanged
+    assert "fine_edge_max=0.004" in S.SphereFitConfig(fine_edge_max=0.004).key()
+    with pytest.raises(CompassInputError, match="fine_edge_max"):
+        S.SphereFitConfig(fine_edge_max=0.0)
+
+
+def test_fine_model_bulges_less_on_the_fingers(sm, sm_fine):
+    m, hulls = _local_hulls(sm)
+    i = sm.link_names.index("hand/panda_rightfinger")
+    (P,) = hulls[i]
+    lo, hi = P.min(0), P.max(0)
+    ov = [_box_overshoot(lo, hi, x.centers_local[x.body_index == i], x.radii[x.body_index == i]) for x in (sm, sm_fine)]
+    assert ov[1] < 0.6 * ov[0]

@@ -255,3 +255,75 @@ def test_distance_grid_from_mapping_field_and_lookup_values():
     assert 0.05 <= grid_clearance(near, free_outside, 0.0) <= 0.45
     inside_unsafe = field.grid_min + [0.55, 0.55, 0.55]
     assert grid_clearance(inside_unsafe, free_outside, 0.0) <= 0.0
+
+
+def _grid_of(prims, res=0.02):
+    """Voxelised primitives (a voxel is unsafe when its cube may touch one) as a DistanceGrid."""
+    lo, n = np.array([-1.0, -1.0, -0.2]), np.array([110, 100, 80])
+    axes = [lo[i] + (np.arange(n[i]) + 0.5) * res for i in range(3)]
+    P = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
+    unsafe = (prims.distance(P) <= 0.5 * np.sqrt(3.0) * res).reshape(n)
+    return DistanceGrid.from_unsafe_mask(unsafe, lo, res)
+
+
+def test_clusters_partition_and_enclose_each_links_spheres(sm):
+    vc = ValidityChecker(sm)
+    bi, cl, rad, start = vc._p.robot[:4]
+    clu_start, clu_c, clu_r, mem_start, members = vc._p.robot[12:]
+    np.testing.assert_array_equal(np.sort(members), np.arange(len(rad)))  # every sphere exactly once
+    for i in range(len(start) - 1):
+        for k in range(clu_start[i], clu_start[i + 1]):
+            m = members[mem_start[k]:mem_start[k + 1]]
+            assert 1 <= len(m) <= 8 and np.all(bi[m] == i)
+            assert np.all(np.linalg.norm(cl[m] - clu_c[k], axis=1) + rad[m] <= clu_r[k] + 1e-12)
+
+
+def test_motion_bounds_bound_sphere_and_pair_motion(sm):
+    from compass_manip.motion.edge_bounds import edge_rates
+
+    vc = ValidityChecker(sm)
+    R_link, R_pair = vc._bounds
+    robot = vc._p.robot
+    bi, lp, lp_run, run_u, run_start, partner = robot[0], robot[7], robot[8], robot[9], robot[10], robot[11]
+    rng = np.random.default_rng(5)
+    worst_env, worst_pair = 0.0, 0.0
+    for _ in range(40):
+        q0 = rng.uniform(Q_MIN, Q_MAX)
+        q1 = np.clip(q0 + rng.uniform(-0.6, 0.6, 7), Q_MIN, Q_MAX)
+        rl, rp = np.empty(len(R_link)), np.empty(len(R_pair))
+        edge_rates(q0, q1, R_link, R_pair, rl, rp)
+        t = np.linspace(0.0, 1.0, 21)
+        W = sm.sphere_centers(q0 + t[:, None] * (q1 - q0))  # (21,S,3)
+        moved = np.linalg.norm(W - W[0], axis=2)  # |p(t) - p(0)| <= t * rate
+        ratio = moved[1:] / (t[1:, None] * rl[bi][None, :] + 1e-300)
+        worst_env = max(worst_env, float(ratio[:, rl[bi] > 0].max()))
+        assert np.all(moved[:, rl[bi] == 0] < 1e-12)  # links no joint moves stay put
+        for li in range(len(lp)):
+            r = lp_run[li]
+            u, v = run_u[r], partner[run_start[r]:run_start[r + 1]]
+            d = np.linalg.norm(W[:, u][:, None] - W[:, v], axis=2)
+            change = np.abs(d - d[0])[1:] / (t[1:, None] * rp[li] + 1e-300)
+            worst_pair = max(worst_pair, float(change.max()))
+    assert 0.2 < worst_env <= 1.0 and 0.1 < worst_pair <= 1.0  # bounds hold and are not vacuous
+
+
+@pytest.mark.parametrize("kind", ["primitives", "grid"])
+def test_adaptive_edge_check_equals_checking_every_state(sm, prims, kind):
+    from compass_manip.motion.edge_bounds import edge_valid_adaptive_kernel
+    from compass_manip.motion.validity import edge_valid_kernel
+
+    vc = ValidityChecker(sm, obstacles=prims) if kind == "primitives" else ValidityChecker(sm, grid=_grid_of(prims))
+    rng = np.random.default_rng(11)
+    Q = rng.uniform(Q_MIN, Q_MAX, (600, 7))
+    free = Q[vc.are_valid(Q)]
+    verdicts = []
+    for k in range(150):
+        q0 = free[k % len(free)]
+        q1 = np.clip(q0 + rng.uniform(-0.8, 0.8, 7) * rng.uniform(0.05, 1.0), Q_MIN, Q_MAX)
+        for res in (0.005, 0.03):
+            n = max(1, int(np.ceil(np.max(np.abs(q1 - q0)) / res)))
+            dense = bool(edge_valid_kernel(q0, q1, n, *vc.kernel_args()))
+            assert bool(edge_valid_adaptive_kernel(q0, q1, n, *vc.edge_kernel_args())) == dense
+            assert vc.edge_valid(q0, q1, res, adaptive=True) == dense
+            verdicts.append(dense)
+    assert 0.1 < np.mean(verdicts) < 0.95  # both verdicts occur

@@ -4,6 +4,7 @@ from __future__ import annotations
 import json
 import math
 import sys
+from functools import partial
 
 HELP = "solve MotionBenchMaker problems (folder or .tar.bz2) and print per-family results"
 
@@ -21,7 +22,10 @@ def add_arguments(parser) -> None:
     parser.add_argument("--backend", choices=("numba", "ompl"), default="numba", help="planner backend")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
     parser.add_argument("--explain", action="store_true",
-                        help="list which robot link touches which obstacle for each rejected problem")
+                        help="list which robot link touches which obstacle for each problem the "
+                             "planner's spheres reject, with the fine spheres' clearance there")
+    parser.add_argument("--no-refine", action="store_true",
+                        help="do not re-check rejected starts/goals with the fine sphere model")
 
 
 def _fmt(x: float) -> str:
@@ -33,7 +37,16 @@ def run(args) -> int:
     from tqdm import tqdm
 
     from ..errors import CompassInputError
-    from ..motion.mbm import Rejection, explain_invalid, family_stats, load_problems, solve_problem
+    from ..motion.mbm import (
+        FINE_FIT,
+        explain_invalid,
+        family_stats,
+        load_problems,
+        problem_validity,
+        solve_problems,
+        sphere_models_by_width,
+        within_limits,
+    )
     from ..motion.planner import PlannerConfig
     from ..robot.spheres import panda_sphere_model
 
@@ -43,35 +56,46 @@ def run(args) -> int:
     config = PlannerConfig(time_budget=args.time_budget, seed=args.seed, backend=args.backend,
                            edge_resolution=edge, verify_resolution=min(args.validate_resolution, edge))
     problems = load_problems(args.path)
-    spheres = panda_sphere_model()
-    outcomes = []
-    bar = tqdm(problems, desc="mbm", unit="problem", file=sys.stderr,
-               disable=args.no_progress or None, leave=False)
-    for i, p in enumerate(bar):
-        rng = np.random.default_rng([args.seed, i])
-        outcomes.append(solve_problem(p, spheres, config, rng, args.validate_resolution))
+    bar = partial(tqdm, desc="mbm", unit="problem", file=sys.stderr, disable=args.no_progress or None, leave=False)
+    outcomes = solve_problems(problems, config, args.seed, args.validate_resolution, not args.no_refine, bar)
+    coarse = sphere_models_by_width(problems)
     stats = family_stats(outcomes)
     if args.json:
         for s in stats:
             print(json.dumps(s.as_json()))
         return 0
-    print(f"{'family':<18} {'problems':>8} {'rejected':>8} {'solved':>7} {'median ms':>10} {'p90 ms':>9}")
+    print(f"{'family':<18} {'problems':>8} {'rejected':>8} {'solved':>7} {'outside_limits':>14} "
+          f"{'median ms':>10} {'p90 ms':>9}")
     for s in stats:
-        print(f"{s.family:<18} {s.problems:>8} {s.rejected:>8} {s.solved:>7} "
+        print(f"{s.family:<18} {s.problems:>8} {s.rejected:>8} {s.solved:>7} {s.outside_limits:>14} "
               f"{_fmt(s.plan_ms_median):>10} {_fmt(s.plan_ms_p90):>9}")
+    widths = sorted({p.finger_width for p in problems})
+    print("rejected: start or every goal in collision for our spheres; outside_limits: start or every "
+          "goal outside the joint limits")
+    print(f"finger opening from each problem's start state: {', '.join(f'{w:.3f}' for w in widths)} m")
+    n_refined = sum(s.refined for s in stats)
+    if not args.no_refine:
+        print(f"refined: {n_refined} problems planned with the fine sphere model (wrist/hand/finger "
+              f"protrusion {1e3 * FINE_FIT.fine_protrusion:.0f} mm): the planner's spheres rejected "
+              "their start or goals, the fine ones did not")
     reasons: dict[tuple[str, str], int] = {}
     for o in outcomes:
         if o.rejection is not None:
             key = (o.family, o.rejection.value)
             reasons[key] = reasons.get(key, 0) + 1
     for (fam, why), n in sorted(reasons.items()):
-        print(f"rejected: {fam}: {n} x {why}")
+        print(f"not planned: {fam}: {n} x {why}")
     if args.explain:
         for p, o in zip(problems, outcomes):
-            if o.rejection in (Rejection.START_IN_COLLISION, Rejection.GOAL_IN_COLLISION):
-                q = p.q_start if o.rejection is Rejection.START_IN_COLLISION else p.q_goals[0]
-                why = "; ".join(explain_invalid(p, spheres, q)) or "no sphere contact found"
-                print(f"{p.family} {p.name} {o.rejection.value}: {why}")
+            if o.refined or (o.rejection is not None and o.rejection.in_collision):
+                v = problem_validity(p, coarse[p.finger_width])
+                bad = [q for q in (p.q_start, *p.q_goals) if within_limits(q) and not v.is_valid(q)]
+                for q in bad[:2]:
+                    what = "start" if q is p.q_start else "goal"
+                    fine = None if args.no_refine else panda_sphere_model(finger_width=p.finger_width, fit=FINE_FIT)
+                    why = "; ".join(explain_invalid(p, coarse[p.finger_width], q, fine))
+                    status = o.rejection.value if o.rejection is not None else "accepted by the fine spheres"
+                    print(f"{p.family} {p.name} {what} ({status}): {why or 'no sphere contact found'}")
     for s in stats:
         if s.path_invalid:
             print(f"warning: {s.family}: {s.path_invalid} returned paths failed the re-check "

@@ -6,7 +6,14 @@ A problem set is a directory, or a `.tar.bz2` archive, holding `sceneNNNN.yaml` 
 objects made of box (full sizes x, y, z [m]), cylinder (height, radius [m]) and sphere
 (radius [m]) primitives with poses in the world (position [m], orientation quaternion
 x, y, z, w); the robot base is at the world origin. Requests are MoveIt
-`MotionPlanRequest`s: a start joint state and joint-space goal constraints [rad].
+`MotionPlanRequest`s: a start joint state and joint-space goal constraints [rad]; the
+finger opening [m] is the sum of the start state's two finger joints (the shared Panda
+requests set each to 0.065 m: 0.13 m), and each problem is checked with that opening.
+
+Solving checks the start and goals with the planner's sphere model; when it rejects them, a
+fine sphere model (`FINE_FIT`: 2 mm protrusion on the wrist, hand and fingers, 0.5 mm
+padding; as conservative, slower) re-checks them, and if it accepts them the problem is
+planned and validated with the fine model.
 """
 from __future__ import annotations
 
@@ -20,10 +27,15 @@ import numpy as np
 
 from ..errors import CompassInputError
 from ..geometry import make_T, quat_to_R
-from ..robot.model import ARM_JOINTS, N_ARM_JOINTS, Q_MAX, Q_MIN
+from ..robot.kinematics import MAX_FINGER_WIDTH
+from ..robot.model import ARM_JOINTS, GRIPPER_MAX_WIDTH, N_ARM_JOINTS, Q_MAX, Q_MIN
+from ..robot.spheres import SphereFitConfig
 
 _SCENE_RE = re.compile(r"scene(\d+)\.ya?ml$")
 _REQUEST_RE = re.compile(r"request(\d+)\.ya?ml$")
+
+#: Fit of the refinement sphere model (tighter on the wrist, hand and fingers; see module doc).
+FINE_FIT = SphereFitConfig(fine_protrusion=0.002, fine_edge_max=0.004, padding=0.0005)
 
 
 @dataclass(frozen=True)
@@ -31,7 +43,8 @@ class MbmProblem:
     """One problem. Obstacles in the world frame: boxes as (T_world_box (4,4), half extents
     (3,) [m]), cylinders as (T_world_cyl (4,4) with the axis along local z, radius [m], half
     length [m]), spheres as (center (3,) [m], radius [m]). q_start [rad] (7,), q_goals [rad]
-    (k,7): any goal may be reached."""
+    (k,7): any goal may be reached; finger_width [m]: opening of the fingers (distance between
+    them) in the start state."""
 
     family: str
     name: str
@@ -41,6 +54,7 @@ class MbmProblem:
     q_start: np.ndarray
     q_goals: np.ndarray
     obstacle_ids: tuple = ()  # object id of each box, then cylinder, then sphere
+    finger_width: float = GRIPPER_MAX_WIDTH
 
     def primitive_lists(self) -> dict:
         """Keyword arguments for `PrimitiveSet.from_lists(boxes=, spheres=, cylinders=)`."""
@@ -145,6 +159,24 @@ def parse_request(data: dict, where: str) -> tuple[np.ndarray, np.ndarray]:
     return q_start, np.asarray(goals, dtype=np.float64).reshape(-1, N_ARM_JOINTS)
 
 
+def parse_finger_width(data: dict, where: str) -> float:
+    """Finger opening [m] of a request's start state: the sum of its two finger joints
+    (`*finger_joint1`, `*finger_joint2`); GRIPPER_MAX_WIDTH when it names no finger joint."""
+    js = ((data.get("start_state") or {}).get("joint_state")) or {}
+    start = dict(zip(list(js.get("name") or []), list(js.get("position") or [])))
+    fingers = [v for k in ("finger_joint1", "finger_joint2") for n, v in start.items() if str(n).endswith(k)]
+    if not fingers:
+        return GRIPPER_MAX_WIDTH
+    try:
+        width = float(sum(float(v) for v in fingers)) * (2.0 / len(fingers))
+    except (TypeError, ValueError) as exc:
+        raise CompassInputError(f"{where}: finger joint positions {fingers!r} are not numbers") from exc
+    if not (np.isfinite(width) and 0.0 <= width <= MAX_FINGER_WIDTH):
+        raise CompassInputError(f"{where}: finger opening {width} m (sum of the finger joints) is not allowed; "
+                                f"use 0..{MAX_FINGER_WIDTH} m")
+    return width
+
+
 def _family_name(folder: str, root_name: str) -> str:
     name = os.path.basename(folder.rstrip("/")) or root_name
     return name[: -len("_panda")] if name.endswith("_panda") else name
@@ -197,28 +229,36 @@ def load_problems(path: str) -> list[MbmProblem]:
         s_rel, s_text = scenes[key]
         r_rel, r_text = requests[key]
         boxes, cylinders, spheres, ids = parse_scene(_yaml_load(s_text, s_rel), s_rel)
-        q_start, q_goals = parse_request(_yaml_load(r_text, r_rel), r_rel)
+        request = _yaml_load(r_text, r_rel)
+        q_start, q_goals = parse_request(request, r_rel)
         problems.append(MbmProblem(_family_name(key[0], root_name), key[1], boxes, cylinders, spheres,
-                                   q_start, q_goals, ids))
+                                   q_start, q_goals, ids, parse_finger_width(request, r_rel)))
     return problems
 
 
 # --- solving -----------------------------------------------------------------------
 class Rejection(Enum):
-    """Why a problem was not planned: its start or goal is outside the joint limits or
-    found in collision by our model (the problems are collision-free for the real robot)."""
+    """Why a problem was not planned: its start or goal is outside the joint limits (counted
+    as `outside_limits`) or found in collision by our model (`rejected`; the problems are
+    collision-free for the real robot)."""
 
     START_OUTSIDE_LIMITS = "start outside the joint limits"
     GOAL_OUTSIDE_LIMITS = "every goal outside the joint limits"
     START_IN_COLLISION = "start in collision"
     GOAL_IN_COLLISION = "every goal in collision"
 
+    @property
+    def in_collision(self) -> bool:
+        return self in (Rejection.START_IN_COLLISION, Rejection.GOAL_IN_COLLISION)
+
 
 @dataclass(frozen=True)
 class MbmOutcome:
     """Result of one problem: rejection (None if planned), solved (a path was returned and
     passed the fine re-check), path_invalid (a path was returned but failed the re-check),
-    plan_ms planning wall time [ms] (NaN when rejected), waypoints in the path (0 if none)."""
+    plan_ms planning wall time [ms] (NaN when rejected), waypoints in the path (0 if none),
+    refined: the planner's sphere model rejected the start or every goal and the fine model
+    (which accepted them) was used for this problem."""
 
     family: str
     name: str
@@ -227,11 +267,14 @@ class MbmOutcome:
     path_invalid: bool
     plan_ms: float
     waypoints: int
+    refined: bool = False
 
 
 @dataclass(frozen=True)
 class FamilyStats:
-    """Per-family summary; plan times [ms] over the planned (not rejected) problems."""
+    """Per-family summary; plan times [ms] over the planned (not rejected) problems.
+    rejected: start or every goal found in collision; outside_limits: start or every goal
+    outside the joint limits; refined: planned with the fine sphere model."""
 
     family: str
     problems: int
@@ -240,11 +283,14 @@ class FamilyStats:
     plan_ms_median: float
     plan_ms_p90: float
     path_invalid: int
+    outside_limits: int = 0
+    refined: int = 0
 
     def as_json(self) -> dict:
         """The JSON object printed by `compass mbm --json`."""
         return {"family": self.family, "problems": self.problems, "rejected": self.rejected,
-                "solved": self.solved, "plan_ms_median": _json_float(self.plan_ms_median),
+                "outside_limits": self.outside_limits, "solved": self.solved,
+                "plan_ms_median": _json_float(self.plan_ms_median),
                 "plan_ms_p90": _json_float(self.plan_ms_p90)}
 
 
@@ -261,12 +307,17 @@ def problem_validity(problem: MbmProblem, sphere_model):
 
 
 def solve_problem(problem: MbmProblem, sphere_model, planner_config, rng: np.random.Generator,
-                  validate_resolution: float = 0.005) -> MbmOutcome:
-    """Check start/goals, plan, and re-check the returned path at `validate_resolution` [rad]."""
+                  validate_resolution: float = 0.005, fine_model=None) -> MbmOutcome:
+    """Check start/goals, plan, and re-check the returned path at `validate_resolution` [rad].
+
+    sphere_model / fine_model: SphereModels with the problem's finger opening (fine_model, or
+    a callable returning it, is used only when sphere_model rejects the start or every goal;
+    None: no refinement).
+    """
     from .planner import PlanFailure, plan
 
-    def reject(r: Rejection) -> MbmOutcome:
-        return MbmOutcome(problem.family, problem.name, r, False, False, float("nan"), 0)
+    def reject(r: Rejection, refined: bool = False) -> MbmOutcome:
+        return MbmOutcome(problem.family, problem.name, r, False, False, float("nan"), 0, refined)
 
     if not within_limits(problem.q_start):
         return reject(Rejection.START_OUTSIDE_LIMITS)
@@ -274,16 +325,50 @@ def solve_problem(problem: MbmProblem, sphere_model, planner_config, rng: np.ran
     if len(goals) == 0:
         return reject(Rejection.GOAL_OUTSIDE_LIMITS)
     validity = problem_validity(problem, sphere_model)
+    refined = False
+    if fine_model is not None and not _ends_valid(validity, problem.q_start, goals):
+        fine = problem_validity(problem, fine_model() if callable(fine_model) else fine_model)
+        if _ends_valid(fine, problem.q_start, goals):
+            validity, refined = fine, True
     result = plan(problem.q_start, goals, validity, planner_config, rng)
     if result.failure is PlanFailure.START_INVALID:
-        return reject(Rejection.START_IN_COLLISION)
+        return reject(Rejection.START_IN_COLLISION, refined)
     if result.failure is PlanFailure.GOAL_INVALID:
-        return reject(Rejection.GOAL_IN_COLLISION)
+        return reject(Rejection.GOAL_IN_COLLISION, refined)
     ok = (result.success and np.array_equal(result.path[0], problem.q_start)
           and bool(np.any(np.all(result.path[-1] == goals, axis=1)))
           and path_is_valid(result.path, validity, validate_resolution))
     return MbmOutcome(problem.family, problem.name, None, ok, result.success and not ok,
-                      1e3 * result.plan_time_s, 0 if result.path is None else len(result.path))
+                      1e3 * result.plan_time_s, 0 if result.path is None else len(result.path), refined)
+
+
+def solve_problems(problems: list[MbmProblem], planner_config, seed: int = 0, validate_resolution: float = 0.005,
+                   refine: bool = True, progress=None) -> list[MbmOutcome]:
+    """Solve every problem with the default sphere model at its finger opening (one model per
+    distinct opening), refined by the FINE_FIT model (fitted only when first needed) unless
+    refine is False. Problem i uses np.random.default_rng([seed, i]); progress: optional
+    wrapper of the problem iterable (e.g. tqdm)."""
+    from ..robot.spheres import panda_sphere_model
+
+    coarse = sphere_models_by_width(problems)
+    out = []
+    for i, p in enumerate(progress(problems) if progress is not None else problems):
+        fine = (lambda w=p.finger_width: panda_sphere_model(finger_width=w, fit=FINE_FIT)) if refine else None
+        out.append(solve_problem(p, coarse[p.finger_width], planner_config, np.random.default_rng([seed, i]),
+                                 validate_resolution, fine))
+    return out
+
+
+def _ends_valid(validity, q_start: np.ndarray, goals: np.ndarray) -> bool:
+    """True if the start and at least one goal are valid."""
+    return validity.is_valid(q_start) and bool(validity.are_valid(goals).any())
+
+
+def sphere_models_by_width(problems: list[MbmProblem], fit: SphereFitConfig | None = None) -> dict:
+    """{finger_width [m]: SphereModel} for every distinct finger opening of `problems`."""
+    from ..robot.spheres import panda_sphere_model
+
+    return {w: panda_sphere_model(finger_width=w, fit=fit) for w in sorted({p.finger_width for p in problems})}
 
 
 def within_limits(q: np.ndarray) -> bool:
@@ -304,32 +389,48 @@ def family_stats(outcomes: list[MbmOutcome]) -> list[FamilyStats]:
         rows = [o for o in outcomes if o.family == fam]
         t = np.array([o.plan_ms for o in rows if o.rejection is None])
         out.append(FamilyStats(
-            fam, len(rows), sum(o.rejection is not None for o in rows), sum(o.solved for o in rows),
+            fam, len(rows), sum(o.rejection is not None and o.rejection.in_collision for o in rows),
+            sum(o.solved for o in rows),
             float(np.median(t)) if t.size else float("nan"),
             float(np.percentile(t, 90)) if t.size else float("nan"),
             sum(o.path_invalid for o in rows),
+            sum(o.rejection is not None and not o.rejection.in_collision for o in rows),
+            sum(o.refined for o in rows),
         ))
     return out
 
 
-def explain_invalid(problem: MbmProblem, sphere_model, q: np.ndarray) -> list[str]:
+def _link_clearance(sphere_model, q: np.ndarray, ps) -> dict[str, float]:
+    """{moving link: smallest (distance to the primitives ps - sphere radius) [m]} at q."""
+    C = sphere_model.sphere_centers(q[None])[0]
+    links = np.asarray(sphere_model.link_names)[sphere_model.body_index]
+    gap = ps.distance(C) - sphere_model.radii
+    moving = sphere_model.body_index != 0  # the base stands on its support
+    return {str(k): float(gap[(links == k) & moving].min()) for k in dict.fromkeys(links[moving])}
+
+
+def explain_invalid(problem: MbmProblem, sphere_model, q: np.ndarray, fine_model=None) -> list[str]:
     """Why our model finds q (7,) [rad] invalid: each (robot link, obstacle) pair whose
-    spheres penetrate, with the deepest penetration [mm], then self-colliding link pairs."""
+    spheres penetrate, with the deepest penetration [mm], then self-colliding link pairs.
+    With a (tighter, also conservative) fine_model, each line also gives that link's
+    clearance under the fine spheres: a lower bound on the true clearance, so a positive value
+    means the coarse spheres overshoot the real geometry there by at least their sum."""
     from .primitives import PrimitiveSet
 
     q = np.clip(np.asarray(q, np.float64), Q_MIN, Q_MAX)
     C = sphere_model.sphere_centers(q[None])[0]
     links = np.asarray(sphere_model.link_names)[sphere_model.body_index]
-    moving = sphere_model.body_index != 0  # the base stands on its support
     out = []
     singles = ([PrimitiveSet.from_lists(boxes=[b]) for b in problem.boxes]
                + [PrimitiveSet.from_lists(cylinders=[c]) for c in problem.cylinders]
                + [PrimitiveSet.from_lists(spheres=[s]) for s in problem.spheres])
     for ps, oid in zip(singles, problem.obstacle_ids or [f"#{i}" for i in range(len(singles))]):
-        pen = ps.distance(C) - sphere_model.radii
-        for link in dict.fromkeys(links[(pen < 0) & moving]):
-            depth = -pen[(links == link) & moving].min()
-            out.append(f"{link} touches {oid!r} ({1e3 * depth:.1f} mm)")
+        gap = _link_clearance(sphere_model, q, ps)
+        fine = _link_clearance(fine_model, q, ps) if fine_model is not None else {}
+        for link, g in gap.items():
+            if g < 0:
+                extra = f"; fine spheres {1e3 * fine[link]:+.1f} mm" if link in fine else ""
+                out.append(f"{link} touches {oid!r} ({1e3 * -g:.1f} mm{extra})")
     pairs = sphere_model.self_collision_pairs
     if len(pairs):
         gap = np.linalg.norm(C[pairs[:, 0]] - C[pairs[:, 1]], axis=1) - sphere_model.radii[pairs].sum(axis=1)

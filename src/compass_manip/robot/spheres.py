@@ -33,8 +33,10 @@ class SphereFitConfig:
     (radius = depth of its centre below the hull surface + protrusion; larger = fewer, bigger
     spheres); fine_links use fine_protrusion (wrist and hand: they pass close to each other
     across joint 6 and reach into shelves and around objects); radius_max: largest radius;
-    edge_max: surface triangle edges; grid: candidate centre spacing; padding: added to every
-    radius; n_pair_samples / seed: configurations that find always-overlapping sphere pairs."""
+    edge_max: surface triangle edges (a sphere holds whole triangles, so long edges make
+    spheres bulge further beyond flat faces); fine_edge_max: edge_max of the fine_links (None:
+    edge_max); grid: candidate centre spacing; padding: added to every radius;
+    n_pair_samples / seed: configurations that find always-overlapping sphere pairs."""
 
     protrusion: float = 0.015
     fine_links: tuple[str, ...] = ("panda_link5", "panda_link6", "panda_link7", "hand/panda_hand",
@@ -46,6 +48,7 @@ class SphereFitConfig:
     padding: float = 0.001
     n_pair_samples: int = 2000
     seed: int = 0
+    fine_edge_max: float | None = None
 
     def __post_init__(self) -> None:
         if not (0.001 <= self.protrusion <= 0.1 and 0.001 <= self.fine_protrusion <= 0.1):
@@ -56,6 +59,13 @@ class SphereFitConfig:
                              ("grid", 0.002, self.radius_max), ("padding", 0.0, 0.05)):
             if not lo <= getattr(self, name) <= hi:
                 raise CompassInputError(f"{name} {getattr(self, name)} m is not allowed; use {lo}..{hi} m")
+        if self.fine_edge_max is not None and not 0.001 <= self.fine_edge_max <= self.radius_max:
+            raise CompassInputError(
+                f"fine_edge_max {self.fine_edge_max} m is not allowed; use 0.001..{self.radius_max} m")
+
+    def key(self) -> str:
+        """Text identifying the fit in cache keys (unchanged for fits without fine_edge_max)."""
+        return repr(self).replace(", fine_edge_max=None", "")
 
 
 @dataclass(frozen=True, eq=False)
@@ -240,8 +250,8 @@ def _greedy_cover(C, rc, E, w):
     return np.array(out, np.int64)
 
 
-def _fit_link(hulls: list[np.ndarray], fit: SphereFitConfig, protrusion: float | None = None
-              ) -> tuple[np.ndarray, np.ndarray]:
+def _fit_link(hulls: list[np.ndarray], fit: SphereFitConfig, protrusion: float | None = None,
+              edge_max: float | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Sphere cover of the hull surfaces and interiors of one link: (K,3) centres, (K,) radii [m].
 
     Greedy set cover of representative surface/interior points chooses the centres; the radii
@@ -251,12 +261,13 @@ def _fit_link(hulls: list[np.ndarray], fit: SphereFitConfig, protrusion: float |
     from scipy.spatial import ConvexHull, Delaunay
 
     protrusion = fit.protrusion if protrusion is None else protrusion
+    edge_max = fit.edge_max if edge_max is None else edge_max
     grid = min(fit.grid, protrusion)  # candidate spacing: finer for tighter fits
     corners, tris, interior, depth = [], [], [], []
     n = 0
     for P in hulls:
         h = ConvexHull(P)
-        V, T = _subdivide(P[h.vertices], np.searchsorted(h.vertices, h.simplices), fit.edge_max)
+        V, T = _subdivide(P[h.vertices], np.searchsorted(h.vertices, h.simplices), edge_max)
         corners.append(V)
         tris.append(T + n)
         n += V.shape[0]
@@ -299,7 +310,7 @@ def _fit_link(hulls: list[np.ndarray], fit: SphereFitConfig, protrusion: float |
 
 
 def _geometry_hash(hulls: list[list[np.ndarray]], fit: SphereFitConfig) -> str:
-    h = hashlib.sha256(repr(fit).encode())
+    h = hashlib.sha256(fit.key().encode())
     for link in hulls:
         h.update(b"|")
         for P in link:
@@ -307,14 +318,24 @@ def _geometry_hash(hulls: list[list[np.ndarray]], fit: SphereFitConfig) -> str:
     return h.hexdigest()[:16]
 
 
+#: Fits shipped with the package (made by `python -m compass_manip.robot.spheres`), so a
+#: fresh machine does not spend minutes fitting; names carry the hash of the geometry and
+#: fit parameters, so a changed model never picks up a stale file.
+SHIPPED_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data")
+_USED_NAMES: set[str] = set()
+
+
 def _cached(name: str, compute) -> dict:
     """Arrays saved as COMPASS_CACHE_DIR/name.npz (default ~/.cache/compass_manip), computed
-    by compute() -> dict of arrays when missing; written atomically (skipped if not writable)."""
+    by compute() -> dict of arrays when missing; written atomically (skipped if not writable).
+    A file of that name shipped in SHIPPED_DIR is used first."""
     folder = os.environ.get("COMPASS_CACHE_DIR", os.path.join(os.path.expanduser("~"), ".cache", "compass_manip"))
     path = os.path.join(folder, f"{name}.npz")
-    if os.path.isfile(path):
-        with np.load(path) as z:
-            return {k: z[k] for k in z.files}
+    _USED_NAMES.add(name)
+    for candidate in (os.path.join(SHIPPED_DIR, f"{name}.npz"), path):
+        if os.path.isfile(candidate):
+            with np.load(candidate) as z:
+                return {k: z[k] for k in z.files}
     arrays = compute()
     try:
         os.makedirs(folder, exist_ok=True)
@@ -335,7 +356,8 @@ def fit_spheres(kin: PandaKinematics, fit: SphereFitConfig) -> tuple[np.ndarray,
         for i, link in enumerate(hulls):
             if link:
                 fine = kin.link_names[i] in fit.fine_links
-                c, r = _fit_link(link, fit, fit.fine_protrusion if fine else fit.protrusion)
+                c, r = _fit_link(link, fit, fit.fine_protrusion if fine else fit.protrusion,
+                                 fit.fine_edge_max if fine else None)
                 bi.append(np.full(len(r), i, np.int64))
                 cs.append(c)
                 rs.append(r + fit.padding)
@@ -398,7 +420,7 @@ def _cached_model(config: RobotConfig, finger_width: float, fit: SphereFitConfig
     bi, c, r = fit_spheres(kin, fit)
     # self-collision pairs do not depend on the base pose: cache them keyed by everything else
     t = kin.tree
-    h = hashlib.sha256(repr((fit, kin.finger_pos)).encode())
+    h = hashlib.sha256(f"({fit.key()}, {kin.finger_pos!r})".encode())
     for a in (bi, c, r, t.T_parent_link[1:], t.axis, t.anchor, t.parent, t.joint_kind):
         h.update(np.ascontiguousarray(a).tobytes())
     pairs = _cached(f"panda_selfpairs_{h.hexdigest()[:16]}",
@@ -412,3 +434,26 @@ def panda_sphere_model(robot_config: RobotConfig | None = None, finger_width: fl
                        fit: SphereFitConfig | None = None) -> SphereModel:
     """Sphere model of the Panda + hand (fingers at finger_width [m]) + camera housing."""
     return _cached_model(robot_config or RobotConfig(), float(finger_width), fit or SphereFitConfig())
+
+
+def _ship_fits() -> None:
+    """Write the fits the package uses (default model at 0.08 and 0.13 m finger openings,
+    MotionBenchMaker's fine model at 0.13 m) to SHIPPED_DIR, compressed; fits missing from
+    the user cache are computed first."""
+    from ..motion.mbm import FINE_FIT
+
+    _cached_model.cache_clear()
+    _USED_NAMES.clear()
+    for width, fit in ((GRIPPER_MAX_WIDTH, None), (0.13, None), (0.13, FINE_FIT)):
+        panda_sphere_model(finger_width=width, fit=fit)
+    folder = os.environ.get("COMPASS_CACHE_DIR", os.path.join(os.path.expanduser("~"), ".cache", "compass_manip"))
+    os.makedirs(SHIPPED_DIR, exist_ok=True)
+    for name in sorted(_USED_NAMES):
+        target = os.path.join(SHIPPED_DIR, f"{name}.npz")
+        if not os.path.isfile(target):
+            with np.load(os.path.join(folder, f"{name}.npz")) as z:
+                np.savez_compressed(target, **{k: z[k] for k in z.files})
+
+
+if __name__ == "__main__":
+    _ship_fits()
