@@ -24,6 +24,20 @@ _MAX_STAMP = 253
 
 
 @njit(cache=True, inline="always")
+def _view_ray(R_world_cams, m, dirs_cam, r, ox, oy, oz, gx, gy, gz, max_range, inv_res, k0, nx, ny, nz):
+    """DDA set-up (see `raycast.ray_setup`) of ray r of view m: from the camera origin
+    (ox, oy, oz) [m] (grid coordinates gx, gy, gz) to max_range [m] along the ray."""
+    ex = ox + max_range * (R_world_cams[m, 0, 0] * dirs_cam[r, 0] + R_world_cams[m, 0, 1] * dirs_cam[r, 1] + R_world_cams[m, 0, 2] * dirs_cam[r, 2])
+    ey = oy + max_range * (R_world_cams[m, 1, 0] * dirs_cam[r, 0] + R_world_cams[m, 1, 1] * dirs_cam[r, 1] + R_world_cams[m, 1, 2] * dirs_cam[r, 2])
+    ez = oz + max_range * (R_world_cams[m, 2, 0] * dirs_cam[r, 0] + R_world_cams[m, 2, 1] * dirs_cam[r, 1] + R_world_cams[m, 2, 2] * dirs_cam[r, 2])
+    return ray_setup(
+        gx, gy, gz, ex * inv_res - k0[0], ey * inv_res - k0[1], ez * inv_res - k0[2],
+        int(math.floor(ex * inv_res)) - k0[0], int(math.floor(ey * inv_res)) - k0[1],
+        int(math.floor(ez * inv_res)) - k0[2], nx, ny, nz,
+    )
+
+
+@njit(cache=True, inline="always")
 def _views(gains, w, n_workers, state, stamps, last, origins, R_world_cams, dirs_cam, max_range, k0, res):
     """Gains of views w, w + n_workers, ... with worker w's stamp grid."""
     nx, ny, nz = state.shape
@@ -48,13 +62,8 @@ def _views(gains, w, n_workers, state, stamps, last, origins, R_world_cams, dirs
         gz = oz * inv_res - k0[2]
         count = 0
         for r in range(n_rays):
-            ex = ox + max_range * (R_world_cams[m, 0, 0] * dirs_cam[r, 0] + R_world_cams[m, 0, 1] * dirs_cam[r, 1] + R_world_cams[m, 0, 2] * dirs_cam[r, 2])
-            ey = oy + max_range * (R_world_cams[m, 1, 0] * dirs_cam[r, 0] + R_world_cams[m, 1, 1] * dirs_cam[r, 1] + R_world_cams[m, 1, 2] * dirs_cam[r, 2])
-            ez = oz + max_range * (R_world_cams[m, 2, 0] * dirs_cam[r, 0] + R_world_cams[m, 2, 1] * dirs_cam[r, 1] + R_world_cams[m, 2, 2] * dirs_cam[r, 2])
-            ok, ix, iy, iz, sx, sy, sz, tmx, tmy, tmz, tdx, tdy, tdz, n_steps = ray_setup(
-                gx, gy, gz, ex * inv_res - k0[0], ey * inv_res - k0[1], ez * inv_res - k0[2],
-                int(math.floor(ex * inv_res)) - k0[0], int(math.floor(ey * inv_res)) - k0[1],
-                int(math.floor(ez * inv_res)) - k0[2], nx, ny, nz,
+            ok, ix, iy, iz, sx, sy, sz, tmx, tmy, tmz, tdx, tdy, tdz, n_steps = _view_ray(
+                R_world_cams, m, dirs_cam, r, ox, oy, oz, gx, gy, gz, max_range, inv_res, k0, nx, ny, nz
             )
             if not ok:
                 continue
@@ -156,13 +165,8 @@ def _views_padded(gains, w, n_workers, grids, shape, origins, R_world_cams, dirs
         gz = oz * inv_res - k0[2]
         count = 0
         for r in range(n_rays):
-            ex = ox + max_range * (R_world_cams[m, 0, 0] * dirs_cam[r, 0] + R_world_cams[m, 0, 1] * dirs_cam[r, 1] + R_world_cams[m, 0, 2] * dirs_cam[r, 2])
-            ey = oy + max_range * (R_world_cams[m, 1, 0] * dirs_cam[r, 0] + R_world_cams[m, 1, 1] * dirs_cam[r, 1] + R_world_cams[m, 1, 2] * dirs_cam[r, 2])
-            ez = oz + max_range * (R_world_cams[m, 2, 0] * dirs_cam[r, 0] + R_world_cams[m, 2, 1] * dirs_cam[r, 1] + R_world_cams[m, 2, 2] * dirs_cam[r, 2])
-            ok, ix, iy, iz, sx, sy, sz, tmx, tmy, tmz, tdx, tdy, tdz, n_steps = ray_setup(
-                gx, gy, gz, ex * inv_res - k0[0], ey * inv_res - k0[1], ez * inv_res - k0[2],
-                int(math.floor(ex * inv_res)) - k0[0], int(math.floor(ey * inv_res)) - k0[1],
-                int(math.floor(ez * inv_res)) - k0[2], nx, ny, nz,
+            ok, ix, iy, iz, sx, sy, sz, tmx, tmy, tmz, tdx, tdy, tdz, n_steps = _view_ray(
+                R_world_cams, m, dirs_cam, r, ox, oy, oz, gx, gy, gz, max_range, inv_res, k0, nx, ny, nz
             )
             if not ok:
                 continue

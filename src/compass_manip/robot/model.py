@@ -41,7 +41,8 @@ T_HAND_TCP = make_T(t=[0.0, 0.0, 0.1034])
 GRIPPER_MAX_WIDTH = 0.08
 
 # MuJoCo cameras look along their -z with +y up; OpenCV optical frames look along +z, +y down.
-_MJCAM_TO_CV = np.diag([1.0, -1.0, -1.0, 1.0])
+#: MuJoCo camera frame -> OpenCV optical frame (the same axes, y and z flipped).
+MJCAM_TO_CV = np.diag([1.0, -1.0, -1.0, 1.0])
 
 
 @dataclass(frozen=True)
@@ -174,7 +175,7 @@ def build_robot_spec(config: RobotConfig | None = None, actuators: bool = True):
             arm.delete(act)
 
     hand_body = arm.body("hand/panda_hand")
-    T_hand_mjcam = cam.T_hand_cam @ _MJCAM_TO_CV
+    T_hand_mjcam = cam.T_hand_cam @ MJCAM_TO_CV
     from ..geometry import R_to_quat
 
     hand_body.add_camera(

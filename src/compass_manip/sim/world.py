@@ -14,14 +14,14 @@ import mujoco
 import numpy as np
 
 from ..geometry import make_T
-from ..robot.model import FINGER_JOINTS, GRIPPER_MAX_WIDTH, RobotConfig, build_robot_spec, check_q
+from ..robot.model import (FINGER_JOINTS, GRIPPER_MAX_WIDTH, MJCAM_TO_CV, RobotConfig, build_robot_spec,
+                           check_q)
 from ..types import Frame
 from .scenes import Primitive, SceneSpec
 
 GROUP_ROBOT, GROUP_STATIC, GROUP_CLUTTER, GROUP_TARGET = 0, 1, 2, 3
 _RAY_GROUPS = np.array([1, 1, 1, 1, 0, 0], dtype=np.uint8)
 _TARGET_ONLY = np.array([0, 0, 0, 1, 0, 0], dtype=np.uint8)
-_MJCAM_TO_CV = np.diag([1.0, -1.0, -1.0])
 LABEL_BACKGROUND, LABEL_ROBOT, LABEL_FLOOR = 0, 1, 2
 
 
@@ -135,7 +135,7 @@ class World:
 
     def T_world_cam(self) -> np.ndarray:
         """Optical frame (OpenCV convention) at the current configuration."""
-        R = self.data.cam_xmat[self._cam_id].reshape(3, 3) @ _MJCAM_TO_CV
+        R = self.data.cam_xmat[self._cam_id].reshape(3, 3) @ MJCAM_TO_CV[:3, :3]
         return make_T(R, self.data.cam_xpos[self._cam_id])
 
     # -------------------------------------------------------------- rendering
