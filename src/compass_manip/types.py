@@ -29,6 +29,27 @@ class Frame:
     t: float
     q: np.ndarray
 
+    def observation(self) -> "Observation":
+        """This frame as a method may see it: the segmentation labels dropped."""
+        return Observation(self.depth, self.rgb, self.K, self.T_world_cam, self.t, self.q)
+
+
+@dataclass(frozen=True, eq=False)
+class Observation:
+    """What a method receives from the wrist camera and the arm: a Frame without labels.
+
+    depth: (H, W) float32 z-depth [m] (0 = closer than the minimum range, inf = no return);
+    rgb: (H, W, 3) uint8 or None; K: (3, 3) intrinsics [px]; T_world_cam: (4, 4) optical
+    frame (OpenCV) in the world; t: time [s]; q: (7,) joint state [rad].
+    """
+
+    depth: np.ndarray
+    rgb: np.ndarray | None
+    K: np.ndarray
+    T_world_cam: np.ndarray
+    t: float
+    q: np.ndarray
+
 
 @dataclass(frozen=True, eq=False)
 class Trajectory:

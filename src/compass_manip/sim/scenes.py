@@ -11,6 +11,7 @@ from dataclasses import asdict, dataclass, field, fields
 import numpy as np
 
 from ..errors import CompassInputError
+from ..task import ConfinedSpace, TargetQuery, Task, colour_name
 
 SHAPES = ("box", "cylinder", "sphere")
 #: Wall thickness of the cabinet boards [m].
@@ -128,6 +129,22 @@ class SceneSpec:
     floor_z: float = 0.0
     extra: dict = field(default_factory=dict)
 
+    def task(self, time_limit_s: float = 200.0) -> Task:
+        """What a method may know of this scene: base, floor, the cabinet's outer geometry
+        and opening, and a description of the target (never its pose, nor the contents)."""
+        lo, hi = self.cabinet.interior_min, self.cabinet.interior_max
+        space = ConfinedSpace(
+            interior_min=tuple(float(v) for v in lo), interior_max=tuple(float(v) for v in hi),
+            opening_min=(float(lo[0]), float(lo[1]), float(lo[2])),
+            opening_max=(float(lo[0]), float(hi[1]), float(hi[2])),
+            outward=(-1.0, 0.0, 0.0), wall_thickness=BOARD_THICKNESS,
+        )
+        return Task(
+            robot_base_pos=tuple(float(v) for v in self.robot_base_pos),
+            robot_base_yaw=float(self.robot_base_yaw), floor_z=float(self.floor_z),
+            space=space, target=target_query(self.target), time_limit_s=float(time_limit_s),
+        )
+
     def static_primitives(self) -> list[Primitive]:
         """Everything that does not move: cabinet boards and the obstacles near the base."""
         return self.cabinet.boards() + list(self.base_obstacles)
@@ -177,6 +194,14 @@ class SceneSpec:
         except json.JSONDecodeError as exc:
             raise CompassInputError(f"scene JSON does not parse: {exc}") from exc
         return cls.from_dict(d)
+
+
+def target_query(p: Primitive) -> TargetQuery:
+    """The description a method gets of a target primitive: shape class, colour name and
+    full extents [m] with the two horizontal ones sorted (x >= y)."""
+    h = p.half_extents
+    a, b = sorted((2 * float(h[0]), 2 * float(h[1])), reverse=True)
+    return TargetQuery(shape=p.shape, colour=colour_name(p.rgba), size=(a, b, 2 * float(h[2])))
 
 
 def _primitive(d: dict) -> Primitive:
