@@ -29,6 +29,7 @@ from compass_manip.mapping import infogain
 from compass_manip.mapping.distance import DistanceField
 from compass_manip.mapping.frontiers import find_frontiers
 from compass_manip.mapping.occupancy import MapConfig, OccupancyMap
+from compass_manip.bench.stats import median_p90
 
 MAX_RANGE = 2.0  # [m] the wrist camera's depth_max
 IG_RANGE = 1.0  # [m] information-gain ray length
@@ -61,8 +62,7 @@ def record_frames(n: int = N_FRAMES, seed: int = 0):
 
 def _stats(name: str, samples_s, unit: str = "ms") -> dict:
     a = np.asarray(samples_s) * (1e3 if unit == "ms" else 1.0)
-    return {"name": name, "median": round(float(np.median(a)), 4), "p90": round(float(np.percentile(a, 90)), 4),
-            "unit": unit, "n": int(len(a))}
+    return {"name": name, **median_p90(a), "unit": unit}
 
 
 def _time_integrate(frames, config: MapConfig, rounds: int, clock=time.perf_counter) -> list[float]:
@@ -130,7 +130,7 @@ def main() -> None:
             cpu.append(time.process_time() - c)
         rates = len(poses) / np.asarray(ts)
         results.append({"name": name, "median": round(float(np.median(rates))),
-                        "p90": round(float(np.percentile(rates, 10))), "unit": "views/s",
+                        "p10": round(float(np.percentile(rates, 10))), "unit": "views/s",
                         "rays": [40, 30], "max_range_m": max_range, "batch": len(poses)})
         if max_range == IG_RANGE:  # views per CPU-second: what one idle core delivers
             results.append({"name": "map.info_gain_views_per_cpu_s",

@@ -21,7 +21,8 @@ import numpy as np
 from scipy import ndimage
 
 from compass_manip.geometry import make_T, rot_z
-from compass_manip.motion.mbm import family_stats, load_problems, solve_problems
+from compass_manip.bench.mbm import family_stats, load_problems, solve_problems
+from compass_manip.bench.stats import emit, median_p90
 from compass_manip.motion.planner import PlannerConfig, plan
 from compass_manip.motion.primitives import PrimitiveSet
 from compass_manip.motion.timing import densify, ee_path_length, joint_path_length, time_parameterize
@@ -36,8 +37,6 @@ PAIRS_PER_SCENE = 30
 BUDGET_S = 1.0
 
 
-def emit(name: str, **kw) -> None:
-    print(json.dumps({"name": name, **kw}), flush=True)
 
 
 def scene_primitives(scene) -> PrimitiveSet:
@@ -100,11 +99,6 @@ def sample_queries(scene, checker, kin, rng, n_pairs):
     return out
 
 
-def percentiles(x) -> dict:
-    x = np.asarray(x, float)
-    return {"median": round(float(np.median(x)), 3), "p90": round(float(np.percentile(x, 90)), 3)}
-
-
 def bench_scenes(sm) -> None:
     from compass_manip.robot.kinematics import PandaKinematics
     from compass_manip.sim.levels import generate_scene
@@ -145,14 +139,14 @@ def bench_scenes(sm) -> None:
     for backend, suffix in (("numba", ""), ("ompl", "_ompl")):
         ok = np.array([s for s, _ in rows[backend]])
         t = [ms for _, ms in rows[backend]]
-        emit(f"motion.plan_ms{suffix}", **percentiles(t), unit="ms", n=len(t))
+        emit(f"motion.plan_ms{suffix}", **median_p90(t), unit="ms", n=len(t))
         emit(f"motion.plan_success{suffix}", value=round(float(ok.sum() / max(feasible, 1)), 4),
              unit="ratio", solved=int(ok.sum()), feasible=int(feasible), queries=n_queries)
     emit("motion.gt_collision_paths", value=int(gt_paths), unit="paths", states_in_contact=int(gt_states),
          paths=len(durations))
-    emit("motion.traj_duration_s", **percentiles(durations), unit="s")
-    emit("motion.ee_path_length_m", **percentiles(ee_len), unit="m")
-    emit("motion.joint_path_length_rad", **percentiles(j_len), unit="rad")
+    emit("motion.traj_duration_s", **median_p90(durations), unit="s")
+    emit("motion.ee_path_length_m", **median_p90(ee_len), unit="m")
+    emit("motion.joint_path_length_rad", **median_p90(j_len), unit="rad")
 
 
 def bench_mbm() -> None:
@@ -171,7 +165,7 @@ def bench_mbm() -> None:
          solved_of_accepted=round(solved / max(len(outcomes) - rejected - outside, 1), 4))
     t = [o.plan_ms for o in outcomes if o.rejection is None]
     if t:
-        emit("motion.mbm_plan_ms", **percentiles(t), unit="ms", n=len(t))
+        emit("motion.mbm_plan_ms", **median_p90(t), unit="ms", n=len(t))
     for s in family_stats(outcomes):
         emit(f"motion.mbm.{s.family}", **s.as_json(), unit="ms")
 

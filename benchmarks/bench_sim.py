@@ -13,14 +13,9 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 import numpy as np
 
 from compass_manip.robot.model import Q_HOME, Q_MAX, Q_MIN
+from compass_manip.bench.stats import emit_samples, emit_value
 from compass_manip.sim.certify import certified_scene
 from compass_manip.sim.world import World
-
-
-def _emit(name: str, samples, unit: str) -> None:
-    a = np.asarray(samples, dtype=float)
-    print(json.dumps({"name": name, "median": round(float(np.median(a)), 4),
-                      "p90": round(float(np.percentile(a, 90)), 4), "unit": unit, "n": int(a.size)}), flush=True)
 
 
 def _time(fn, n: int) -> list[float]:
@@ -39,11 +34,11 @@ def main() -> None:
     poses = [np.clip(Q_HOME + rng.uniform(-0.2, 0.2, 7), Q_MIN, Q_MAX) for _ in range(16)]
     it = iter(poses * 100)
     step = lambda: world.set_q(next(it))  # noqa: E731
-    _emit("sim.render_depth_320x240_ms", _time(lambda: (step(), world.render_depth()), 60), "ms")
-    _emit("sim.render_rgb_320x240_ms", _time(lambda: (step(), world.render_rgb()), 60), "ms")
-    _emit("sim.render_seg_320x240_ms", _time(lambda: (step(), world.render_seg()), 60), "ms")
-    _emit("sim.raycast_depth_320x240_ms", _time(lambda: (step(), world.raycast_depth()), 30), "ms")
-    _emit("sim.contact_check_us", [t * 1e3 for t in _time(lambda: world.contacts(next(it), include_self=True), 300)], "us")
+    emit_samples("sim.render_depth_320x240_ms", _time(lambda: (step(), world.render_depth()), 60), "ms")
+    emit_samples("sim.render_rgb_320x240_ms", _time(lambda: (step(), world.render_rgb()), 60), "ms")
+    emit_samples("sim.render_seg_320x240_ms", _time(lambda: (step(), world.render_seg()), 60), "ms")
+    emit_samples("sim.raycast_depth_320x240_ms", _time(lambda: (step(), world.raycast_depth()), 30), "ms")
+    emit_samples("sim.contact_check_us", [t * 1e3 for t in _time(lambda: world.contacts(next(it), include_self=True), 300)], "us")
     world.close()
     for level in (1, 2, 3, 4):
         times, attempts = [], []
@@ -52,7 +47,7 @@ def main() -> None:
             cs = certified_scene(level, i, 0)
             times.append((time.perf_counter() - t0) * 1e3)
             attempts.append(cs.attempts)
-        _emit(f"sim.generate_certify_level{level}_ms", times, "ms")
+        emit_samples(f"sim.generate_certify_level{level}_ms", times, "ms")
         print(json.dumps({"name": f"sim.certify_attempts_level{level}", "value": float(np.mean(attempts)),
                           "unit": "attempts per accepted scene"}), flush=True)
 

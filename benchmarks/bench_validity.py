@@ -21,6 +21,7 @@ from compass_manip.motion.validity import DistanceGrid, ValidityChecker, config_
 from compass_manip.robot.ik import PandaIK, ik_look_at
 from compass_manip.robot.kinematics import PandaKinematics
 from compass_manip.robot.model import Q_HOME, Q_MAX, Q_MIN
+from compass_manip.bench.stats import emit_samples, emit_value
 from compass_manip.robot.spheres import panda_sphere_model
 
 BOXES = [
@@ -29,16 +30,6 @@ BOXES = [
     (make_T(rot_z(0.3), [0.55, 0.45, 0.5]), [0.2, 0.02, 0.3]),  # shelf side
     (make_T(t=[0.55, -0.1, 0.75]), [0.2, 0.3, 0.02]),  # shelf board
 ]
-
-
-def _emit(name, samples, unit):
-    a = np.asarray(samples, dtype=float)
-    print(json.dumps({"name": name, "median": round(float(np.median(a)), 4),
-                      "p90": round(float(np.percentile(a, 90)), 4), "unit": unit, "n": int(a.size)}), flush=True)
-
-
-def _value(name, value, unit):
-    print(json.dumps({"name": name, "value": round(float(value), 4), "unit": unit}), flush=True)
 
 
 def _grid(prims: PrimitiveSet, res=0.01) -> DistanceGrid:
@@ -72,14 +63,14 @@ def main() -> None:
         t0 = time.perf_counter()
         kin.T_world_tcp(q)
         t.append((time.perf_counter() - t0) * 1e6)
-    _emit("robot.fk_tcp_us", t, "us")
-    _value("robot.fk_links_batch_us_per_config", 1e6 / _rate(kin.fk_links_batch, Q[:50_000]), "us")
+    emit_samples("robot.fk_tcp_us", t, "us")
+    emit_value("robot.fk_links_batch_us_per_config", 1e6 / _rate(kin.fk_links_batch, Q[:50_000]), "us")
     t = []
     for q in qs[:500]:
         t0 = time.perf_counter()
         kin.jacobian(q)
         t.append((time.perf_counter() - t0) * 1e6)
-    _emit("robot.jacobian_us", t, "us")
+    emit_samples("robot.jacobian_us", t, "us")
 
     # --- IK: random reachable TCP poses ---------------------------------------------------
     solver = PandaIK(kin)
@@ -93,31 +84,31 @@ def main() -> None:
         if r.success:
             P = kin.T_world_tcp_batch(r.solutions)
             ok += bool(np.all(np.linalg.norm(P[:, :3, 3] - T[:3, 3], axis=1) < 1e-3))
-    _emit("robot.ik_tcp_ms", t, "ms")
+    emit_samples("robot.ik_tcp_ms", t, "ms")
     t = []
     for p in rng.uniform([0.35, -0.35, 0.05], [0.7, 0.35, 0.4], (10, 3)):
         t0 = time.perf_counter()
         ik_look_at(p, 0.35, Q_HOME, ik=solver)
         t.append((time.perf_counter() - t0) * 1e3)
-    _emit("robot.ik_look_at_24views_ms", t, "ms")
-    _value("robot.ik_tcp_success", ok / 300, "ratio")
-    _value("robot.ik_tcp_solutions_mean", np.mean(nsol), "count")
+    emit_samples("robot.ik_look_at_24views_ms", t, "ms")
+    emit_value("robot.ik_tcp_success", ok / 300, "ratio")
+    emit_value("robot.ik_tcp_solutions_mean", np.mean(nsol), "count")
 
     # --- validity ---------------------------------------------------------------------------
     sm = panda_sphere_model()
-    _value("robot.n_spheres", sm.n_spheres, "count")
-    _value("robot.n_self_collision_pairs", len(sm.self_collision_pairs), "count")
+    emit_value("robot.n_spheres", sm.n_spheres, "count")
+    emit_value("robot.n_self_collision_pairs", len(sm.self_collision_pairs), "count")
     prims = PrimitiveSet.from_lists(boxes=BOXES)
     vc = ValidityChecker(sm, obstacles=prims)
     rate = _rate(vc.are_valid, Q)
-    _value("motion.validity_checks_per_s", rate, "1/s")
-    _value("motion.validity_free_fraction", vc.are_valid(Q).mean(), "ratio")
+    emit_value("motion.validity_checks_per_s", rate, "1/s")
+    emit_value("motion.validity_free_fraction", vc.are_valid(Q).mean(), "ratio")
     vg = ValidityChecker(sm, grid=_grid(prims))
-    _value("motion.validity_checks_per_s_grid", _rate(vg.are_valid, Q), "1/s")
+    emit_value("motion.validity_checks_per_s_grid", _rate(vg.are_valid, Q), "1/s")
     # one thread, inside numba (what a numba planner pays per state)
     threads = numba.get_num_threads()
     numba.set_num_threads(1)
-    _value("motion.validity_checks_per_s_1thread", _rate(vc.are_valid, Q[:100_000], repeats=3), "1/s")
+    emit_value("motion.validity_checks_per_s_1thread", _rate(vc.are_valid, Q[:100_000], repeats=3), "1/s")
     numba.set_num_threads(threads)
     # one kernel call from Python (what a Python callback pays: tuple-of-arrays unboxing)
     args = vc.kernel_args()
@@ -127,13 +118,13 @@ def main() -> None:
     t0 = time.perf_counter()
     for q in Q[:50_000]:
         config_valid_kernel(q, *args, links, W)
-    _value("motion.validity_kernel_python_call_us", (time.perf_counter() - t0) / 50_000 * 1e6, "us")
+    emit_value("motion.validity_kernel_python_call_us", (time.perf_counter() - t0) / 50_000 * 1e6, "us")
     t = []
     for q in Q[:2000]:
         t0 = time.perf_counter()
         vc.is_valid(q)
         t.append((time.perf_counter() - t0) * 1e6)
-    _emit("motion.is_valid_us", t, "us")
+    emit_samples("motion.is_valid_us", t, "us")
     # edges of 0.5 rad between random free configurations
     free = Q[:20_000][vc.are_valid(Q[:20_000])][:400]
     ends = [np.clip(q + rng.uniform(-0.5, 0.5, 7), Q_MIN, Q_MAX) for q in free]
@@ -146,7 +137,7 @@ def main() -> None:
             t0 = time.perf_counter()
             vc.edge_valid(q, q1, res, adaptive=adaptive)
             t.append((time.perf_counter() - t0) * 1e6)
-        _emit(name, t, "us")
+        emit_samples(name, t, "us")
 
 
 if __name__ == "__main__":

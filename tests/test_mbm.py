@@ -8,7 +8,7 @@ import pytest
 
 from compass_manip.cli import main
 from compass_manip.errors import CompassInputError
-from compass_manip.motion.mbm import (
+from compass_manip.bench.mbm import (
     FINE_FIT,
     MbmOutcome,
     MbmProblem,
@@ -170,7 +170,7 @@ def test_out_of_limit_goal_is_rejected_not_raised(subset):
 
 
 def test_path_is_valid_detects_a_collision(subset):
-    from compass_manip.motion.mbm import problem_validity
+    from compass_manip.bench.mbm import problem_validity
     from compass_manip.robot.spheres import panda_sphere_model
 
     p = load_problems(subset)[0]  # bookshelf: a straight line through the shelf is blocked
@@ -213,7 +213,7 @@ def test_cli_bad_path_exit_2_one_line(tmp_path, capsys, name):
 
 def test_explain_names_the_link_and_the_obstacle(subset):
     from compass_manip.geometry import make_T
-    from compass_manip.motion.mbm import explain_invalid
+    from compass_manip.bench.mbm import explain_invalid
     from compass_manip.robot.kinematics import PandaKinematics
     from compass_manip.robot.spheres import panda_sphere_model
 
@@ -269,7 +269,7 @@ def _true_clearance(m, d, obstacles, q, width):
 def test_fine_model_accepts_refined_goals_and_stays_conservative(refined):
     """The fine spheres accept goals the default ones reject; near those goals (where the fine
     model matters) every configuration it calls free is free in MuJoCo at the same opening."""
-    from compass_manip.motion.mbm import problem_validity
+    from compass_manip.bench.mbm import problem_validity
     from compass_manip.robot.spheres import panda_sphere_model
 
     rng = np.random.default_rng(3)
@@ -299,7 +299,7 @@ def _limits():
 
 
 def test_refinement_solves_with_the_fine_model(refined):
-    from compass_manip.motion.mbm import explain_invalid, problem_validity
+    from compass_manip.bench.mbm import explain_invalid, problem_validity
     from compass_manip.robot.spheres import panda_sphere_model
 
     p = refined[0]

@@ -1,10 +1,10 @@
 """Layers together: wrist scan -> map -> distance field -> plan -> time -> execute in the simulator."""
 import numpy as np
 
-from compass_manip.cli.demo import wrist_scan
+from compass_manip.exploration.wrist_sweep import wrist_sweep
 from compass_manip.mapping.distance import DistanceField
 from compass_manip.mapping.occupancy import MapConfig, OccupancyMap
-from compass_manip.mapping.selffilter import SphereBodyFilter
+from compass_manip.mapping.observe import integrate_observation
 from compass_manip.motion.planner import PlanFailure, plan
 from compass_manip.motion.primitives import DistanceGrid
 from compass_manip.motion.timing import time_parameterize
@@ -22,13 +22,12 @@ def test_plan_on_the_scanned_map_and_execute_without_contact():
     world = World(scene)
     spheres = panda_sphere_model(world.robot)
     q_home = np.asarray(world.robot.q_home)
-    way = wrist_scan(q_home)
+    way = wrist_sweep(q_home)
     scan = execute(world, Trajectory(np.arange(len(way), dtype=float), way), ExecutorConfig(frame_rate=3.0))
     assert scan.completed and not scan.contacts
     occ = OccupancyMap(MapConfig())
     for f in [world.render(q_home), *scan.frames]:
-        body = SphereBodyFilter(spheres.sphere_centers(f.q[None])[0], spheres.radii, margin=0.01)
-        occ.integrate(f.depth, f.K, f.T_world_cam, world.camera.depth_max, point_filter=body)
+        integrate_observation(occ, f, spheres, world.camera.depth_max)
     # the robot's own volume along the scan is safe; everything unseen is not
     carve = spheres.sphere_centers(way)
     field = DistanceField.from_map(occ, safe_spheres=(carve.reshape(-1, 3), np.tile(spheres.radii + 0.03, len(way))))

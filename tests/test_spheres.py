@@ -21,7 +21,7 @@ def _local_hulls(sm):
 
 @pytest.fixture(scope="module")
 def sm_fine():
-    from compass_manip.motion.mbm import FINE_FIT
+    from compass_manip.robot.sphere_fit import FINE_FIT
 
     return S.panda_sphere_model(finger_width=0.13, fit=FINE_FIT)
 

@@ -27,20 +27,6 @@ def add_arguments(p) -> None:
     p.add_argument("--json", action="store_true", help="print a JSON summary on stdout")
 
 
-def wrist_scan(q_home: np.ndarray, n: int = 6, amplitude: float = 0.45) -> np.ndarray:
-    """Waypoints [rad]: joints 1-4 at home, joints 5 and 6 around a circle, back home."""
-    from ..robot.model import Q_MAX, Q_MIN
-
-    way = [q_home]
-    for a in np.linspace(0.0, 2 * np.pi, n, endpoint=False):
-        q = q_home.copy()
-        q[4] += amplitude * np.cos(a)
-        q[5] += amplitude * np.sin(a)
-        way.append(np.clip(q, Q_MIN, Q_MAX))
-    way.append(q_home)
-    return np.array(way)
-
-
 def run(args) -> int:
     from ..sim.levels import check_level
 
@@ -53,12 +39,13 @@ def run(args) -> int:
     from ..mapping.frontiers import find_frontiers
     from ..mapping.occupancy import MapConfig, OccupancyMap
     from ..mapping.octomap_io import write_bt
-    from ..mapping.selffilter import SphereBodyFilter
+    from ..mapping.observe import integrate_observation
+    from ..exploration.wrist_sweep import wrist_sweep
     from ..robot.model import QD_MAX
     from ..robot.spheres import panda_sphere_model
     from ..sim.certify import certified_scene
     from ..sim.executor import ExecutorConfig, execute
-    from ..sim.images import save_frame_png, save_rgb_png
+    from ..viz.images import save_frame_png, save_rgb_png
     from ..sim.world import World, render_overview
     from ..types import Trajectory
 
@@ -67,11 +54,11 @@ def run(args) -> int:
     cs = certified_scene(args.level, args.index, args.seed)
     world = World(cs.scene)
     q_home = np.asarray(world.robot.q_home)
-    way = wrist_scan(q_home)
+    way = wrist_sweep(q_home)
     seg_t = [np.max(np.abs(b - a) / (0.5 * QD_MAX)) for a, b in zip(way[:-1], way[1:])]  # 50 % of vmax
     traj = Trajectory(np.concatenate([[0.0], np.cumsum(seg_t)]), way)
     print("scanning", file=sys.stderr)
-    start = world.render(q_home)
+    start = world.render(q_home, seg=True)
     res = execute(world, traj, ExecutorConfig(frame_rate=4.0))
     frames = [start, *res.frames]
 
@@ -79,8 +66,7 @@ def run(args) -> int:
     spheres = panda_sphere_model(world.robot)
     occ = OccupancyMap(MapConfig())
     for f in frames:
-        body = SphereBodyFilter(spheres.sphere_centers(f.q[None])[0], spheres.radii, margin=0.01)
-        occ.integrate(f.depth, f.K, f.T_world_cam, world.camera.depth_max, point_filter=body)
+        integrate_observation(occ, f, spheres, world.camera.depth_max)
     t_lo, t_hi = cs.scene.target.aabb()
     counts = occ.counts()
     clusters = find_frontiers(occ)

@@ -37,7 +37,7 @@ def run(args) -> int:
     from tqdm import tqdm
 
     from ..errors import CompassInputError
-    from ..motion.mbm import (
+    from ..bench.mbm import (
         FINE_FIT,
         explain_invalid,
         family_stats,

@@ -62,7 +62,7 @@ def run(args) -> int:
 
 
 def _write(cs, out: str) -> None:
-    from ..sim.images import save_frame_png, save_rgb_png
+    from ..viz.images import save_frame_png, save_rgb_png
     from ..sim.world import World, render_overview
 
     scene = cs.scene

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numba as nb
 import numpy as np
@@ -52,6 +53,19 @@ class ValidityConfig:
             raise CompassInputError(f"margins {self.margin}, {self.self_margin} m must be in 0..0.5 m")
         if not 1e-4 <= self.edge_resolution <= 0.5:
             raise CompassInputError(f"edge_resolution {self.edge_resolution} rad must be in 1e-4..0.5 rad")
+
+
+class KernelArgs(NamedTuple):
+    """Everything the numba validity kernels need about one checker (arrays and tuples):
+    kin (robot kinematics), robot (spheres, see `RobotSpheres`), grid (distance grid),
+    prims (known primitives), limits (joint limits), params (margins)."""
+
+    kin: tuple
+    robot: tuple
+    grid: tuple
+    prims: tuple
+    limits: tuple
+    params: np.ndarray
 
 
 @dataclass(frozen=True, eq=False)
@@ -171,10 +185,10 @@ class ValidityChecker:
         )
         self._bounds = motion_bounds(sphere_model, self._p.robot)
 
-    def kernel_args(self) -> tuple:
+    def kernel_args(self) -> KernelArgs:
         """(kin, robot, grid, prims, limits, params) for `config_valid_kernel` and friends."""
         p = self._p
-        return (p.kin, p.robot, p.grid, p.prims, p.limits, p.params)
+        return KernelArgs(p.kin, p.robot, p.grid, p.prims, p.limits, p.params)
 
     def edge_kernel_args(self) -> tuple:
         """`kernel_args()` + (motion bounds,) for `edge_valid_adaptive_kernel`."""

@@ -56,6 +56,11 @@ class SphereFitConfig:
         return repr(self).replace(", fine_edge_max=None", "")
 
 
+#: Fit of the refinement sphere model used where the default spheres are too coarse
+#: (MotionBenchMaker): 2 mm protrusion on the wrist, hand and fingers, 0.5 mm padding.
+FINE_FIT = SphereFitConfig(fine_protrusion=0.002, fine_edge_max=0.004, padding=0.0005)
+
+
 # --- geometry extraction ------------------------------------------------------------------
 def collision_hulls(model, link_names: tuple[str, ...]) -> list[list[np.ndarray]]:
     """Per link: list of (V,3) point sets [m] in the link frame whose convex hulls collide."""

@@ -22,7 +22,7 @@ import numba as nb
 import numpy as np
 
 from .kinematics import PandaKinematics, check_Q, fk_links_kernel
-from .sphere_fit import SphereFitConfig, _fit_link, _geometry_hash, collision_hulls  # noqa: F401
+from .sphere_fit import FINE_FIT, SphereFitConfig, _fit_link, _geometry_hash, collision_hulls  # noqa: F401
 from .model import GRIPPER_MAX_WIDTH, Q_HOME, Q_MAX, Q_MIN, RobotConfig, build_robot_spec, check_q
 
 
@@ -218,8 +218,6 @@ def _ship_fits() -> None:
     """Write the fits the package uses (default model at 0.08 and 0.13 m finger openings,
     MotionBenchMaker's fine model at 0.13 m) to SHIPPED_DIR, compressed; fits missing from
     the user cache are computed first."""
-    from ..motion.mbm import FINE_FIT
-
     _cached_model.cache_clear()
     _USED_NAMES.clear()
     for width, fit in ((GRIPPER_MAX_WIDTH, None), (0.13, None), (0.13, FINE_FIT)):

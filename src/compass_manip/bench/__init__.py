@@ -1,0 +1,1 @@
+"""Benchmarks and their tooling: MotionBenchMaker, statistics and JSON lines, sweeps."""

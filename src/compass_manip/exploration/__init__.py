@@ -1,0 +1,1 @@
+"""Exploration: how a method chooses where the wrist camera looks next (Task + map only)."""
