@@ -4,7 +4,7 @@ import pytest
 
 from compass_manip.errors import CompassInputError
 from compass_manip.geometry import make_T
-from compass_manip.robot.ik import IKConfig, IKStatus, PandaIK, ik_camera, ik_look_at, ik_tcp
+from compass_manip.robot.ik import IKConfig, IKFailure, PandaIK, ik_camera, ik_look_at, ik_tcp
 from compass_manip.robot.kinematics import PandaKinematics
 from compass_manip.robot.model import Q_HOME, Q_MAX, Q_MIN, RobotConfig
 
@@ -51,7 +51,7 @@ def test_solutions_ordered_distinct_and_contain_source(kin):
     assert r.solutions.shape[0] > 4  # redundancy: several q7 branches
     assert r.T_world_targets.shape == (len(r.solutions), 4, 4)
     np.testing.assert_allclose(r.best, r.solutions[0])
-    assert r.status is IKStatus.SOLVED
+    assert r.failure is None
 
 
 def test_camera_ik_with_moved_base():
@@ -87,7 +87,7 @@ def test_look_at_points_camera_at_target(kin):
 def test_unreachable_and_bad_input():
     r = ik_tcp(make_T(t=[3.0, 0.0, 0.5]), Q_HOME)
     assert not r.success and r.solutions.shape == (0, 7) and r.best is None
-    assert r.status is IKStatus.NO_ANALYTIC_SOLUTION
+    assert r.failure is IKFailure.NO_ANALYTIC_SOLUTION
     with pytest.raises(CompassInputError, match="rigid"):
         ik_tcp(np.eye(4) * 2, Q_HOME)
     with pytest.raises(CompassInputError, match="NaN"):
@@ -114,4 +114,4 @@ def test_validity_filter_keeps_only_collision_free_solutions(kin):
     assert np.all(vc.are_valid(free.solutions))
     blocked = ValidityChecker(sm, obstacles=PrimitiveSet.from_lists(spheres=[(T[:3, 3], 0.05)]))
     r = ik_tcp(T, Q_HOME, validity=blocked)
-    assert not r.success and r.status is IKStatus.IN_COLLISION
+    assert not r.success and r.failure is IKFailure.IN_COLLISION

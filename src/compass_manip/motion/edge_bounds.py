@@ -46,20 +46,20 @@ import numpy as np
 from ..robot.kinematics import fk_links_kernel
 from ..robot.model import Q_HOME
 from ..robot.spheres import SphereModel
+from .kernel_data import RobotSpheres
 from .primitives import grid_clearance, primitives_distance
 
 __all__ = ["motion_bounds", "safe_step_kernel", "edge_valid_adaptive_kernel", "edge_rates"]
 
 
-def motion_bounds(sm: SphereModel, robot: tuple) -> tuple[np.ndarray, np.ndarray]:
+def motion_bounds(sm: SphereModel, robot: RobotSpheres) -> tuple[np.ndarray, np.ndarray]:
     """(R_link (L,7), R_pair (P,7)) [m/rad]: per link and arm joint the bound R[i, j] on the
     distance of the link's tracked points from the joint anchor (0 if j is not inboard of
     i); per link pair of `robot` (the packed checker arrays) the coefficients of the pair's
     relative motion bound. See the module docstring for the derivation."""
     t = sm.kinematics.tree
     L = t.n_links
-    _, cl, _, start, link_c, link_r = robot[:6]
-    lp = robot[7]
+    cl, start, link_c, link_r, lp = robot.centers, robot.start, robot.link_c, robot.link_r, robot.link_pairs
     T = sm.kinematics.fk_links(Q_HOME)  # any configuration: only invariant distances are read
     anchor_w = np.einsum("lij,lj->li", T[:, :3, :3], t.anchor) + T[:, :3, 3]
     R = np.zeros((L, 7))
@@ -190,10 +190,12 @@ def safe_step_kernel(q, kin, robot, grid, prims, limits, params, rate_link, rate
         if not (qmin[j] <= q[j] <= qmax[j]):
             return -1.0
     finger_pos, parent, T_parent_link, joint_kind, joint_index, axis, anchor = kin
-    bi, cl, rad, start, link_c, link_r, env_link, lp, lp_run, run_u, run_start, partner = robot[:12]
-    clusters = robot[12:]
+    cl, rad, start, link_c, link_r = robot.centers, robot.radii, robot.start, robot.link_c, robot.link_r
+    env_link, lp, lp_run = robot.env_link, robot.link_pairs, robot.pair_run
+    run_u, run_start, partner = robot.run_u, robot.run_start, robot.partner
+    clusters = (robot.clu_start, robot.clu_c, robot.clu_r, robot.mem_start, robot.members)
     margin, self_margin, half_diag = params[0], params[1], params[2]
-    slack = math.sqrt(3.0) * grid[2] if grid[3] else 0.0
+    slack = math.sqrt(3.0) * grid.resolution if grid.active else 0.0
     fk_links_kernel(q, finger_pos, parent, T_parent_link, joint_kind, joint_index, axis, anchor, links)
     p = np.empty(3)
     bound = np.full(link_r.shape[0], np.inf)  # proven dt per link (link- or sphere-level)
@@ -266,7 +268,7 @@ def edge_valid_adaptive_kernel(q0, q1, n, kin, robot, grid, prims, limits, param
     docstring). bounds = `motion_bounds(...)`. Intervals are split breadth-first (bisection
     order, fails fast)."""
     R_link, R_pair = bounds
-    L, S = kin[1].shape[0], robot[0].shape[0]
+    L, S = kin.parent.shape[0], robot.radii.shape[0]
     links = np.empty((L, 4, 4))
     W = np.empty((S, 3))
     bc = np.empty((L, 3))

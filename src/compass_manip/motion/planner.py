@@ -87,16 +87,19 @@ class PlannerConfig:
 
 @dataclass(frozen=True)
 class PlanResult:
-    """success; path (n,7) [rad] from the start to one goal, or None; failure reason (None on
+    """path (n,7) [rad] from the start to one goal, or None; failure reason (None on
     success); goal_index into q_goals (-1 on failure); plan_time_s wall time [s] including
     the start/goal checks and simplification; n_checks state and edge validity queries."""
 
-    success: bool
     path: np.ndarray | None
     failure: PlanFailure | None
     goal_index: int
     plan_time_s: float
     n_checks: int
+
+    @property
+    def success(self) -> bool:
+        return self.failure is None
 
 
 def check_goals(q_goals: np.ndarray) -> np.ndarray:
@@ -130,7 +133,7 @@ def plan(q_start, q_goals, validity, config: PlannerConfig | None = None,
     G = check_goals(q_goals)
 
     def fail(reason: PlanFailure, n: int) -> PlanResult:
-        return PlanResult(False, None, reason, -1, time.perf_counter() - t0, n)
+        return PlanResult(None, reason, -1, time.perf_counter() - t0, n)
 
     if args is not None:  # one sequential numba call: no Python per state, no thread start-up
         ok = states_valid(np.vstack([q_start, G]), args)
@@ -159,7 +162,7 @@ def plan(q_start, q_goals, validity, config: PlannerConfig | None = None,
             path = repaired
     if path is None:
         return fail(PlanFailure.TIMEOUT, n_checks)
-    return PlanResult(True, path, None, int(idx[gi]), time.perf_counter() - t0, n_checks)
+    return PlanResult(path, None, int(idx[gi]), time.perf_counter() - t0, n_checks)
 
 
 def _repair(path, validity, args, config, fine, rng, deadline, depth: int = 0):

@@ -1,6 +1,6 @@
 """Numba kernels of the RRT-Connect planner: tree growth, connection and shortcutting.
 
-`args` is `ValidityChecker.kernel_args()`: (kin, robot, grid, prims, limits, params).
+`args` is `ValidityChecker.kernel_args()` (a `KernelArgs`); tree growth is `tree.extend`.
 Edges are straight joint segments checked at a given joint resolution [rad]. Randomness: a
 splitmix64 stream in a (1,) uint64 array, so a seed gives the same tree and path.
 """
@@ -9,27 +9,14 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from .validity import config_valid_kernel, edge_valid_kernel
+from .tree import MAX_NEW_PER_EXTEND, REACHED, TRAPPED, edge_ok, extend
+from .validity import config_valid_kernel
 
 __all__ = ["STATUS_RUNNING", "STATUS_CONNECTED", "STATUS_FULL", "MAX_NEW_PER_ITER", "edge_ok", "states_valid",
            "rrt_connect_kernel", "simplify_kernel"]
 
 STATUS_RUNNING, STATUS_CONNECTED, STATUS_FULL = 0, 1, 2
-_TRAPPED, _ADVANCED, _REACHED = 0, 1, 2
-MAX_NEW_PER_ITER = 64
-
-
-@nb.njit(cache=True)
-def edge_ok(q0, q1, res, args):
-    """ValidityChecker.edge_valid in numba: every state at joint steps <= `res` [rad] valid,
-    all checked (in bisection order). The adaptive kernel of `edge_bounds` gives the same
-    answer but measured slower on planner edges, which mostly run close to obstacles."""
-    m = 0.0
-    for j in range(q0.shape[0]):
-        m = max(m, abs(q1[j] - q0[j]))
-    n = max(1, int(np.ceil(m / res)))
-    kin, robot, grid, prims, limits, params = args
-    return edge_valid_kernel(q0, q1, n, kin, robot, grid, prims, limits, params)
+MAX_NEW_PER_ITER = MAX_NEW_PER_EXTEND
 
 
 @nb.njit(cache=True, inline="always")
@@ -47,8 +34,8 @@ def _uniform01(state):
 def states_valid(Q, args):
     """(N,) validity of Q (N,7) with ValidityChecker's kernel, sequentially."""
     kin, robot, grid, prims, limits, params = args
-    links = np.empty((kin[1].shape[0], 4, 4))
-    W = np.empty((robot[0].shape[0], 3))
+    links = np.empty((kin.parent.shape[0], 4, 4))
+    W = np.empty((robot.radii.shape[0], 3))
     out = np.empty(Q.shape[0], np.bool_)
     for n in range(Q.shape[0]):
         out[n] = config_valid_kernel(Q[n], kin, robot, grid, prims, limits, params, links, W)
@@ -56,45 +43,10 @@ def states_valid(Q, args):
 
 
 @nb.njit(cache=True)
-def _nearest(nodes, n, q):
-    best, kbest = np.inf, 0
-    for k in range(n):
-        d = 0.0
-        for j in range(q.shape[0]):
-            e = nodes[k, j] - q[j]
-            d += e * e
-        if d < best:
-            best, kbest = d, k
-    return kbest
-
-
-@nb.njit(cache=True)
 def _grow(args, nodes, parent, counts, t, q_target, step, res, connect):
-    """Extend tree t from its node nearest q_target by steps of at most `step` [rad]; one step
-    (connect=False) or until reached or blocked (connect=True). Returns (result, last node
-    index, edge checks)."""
-    k = _nearest(nodes, counts[t], q_target)
-    result, n_checks = _TRAPPED, 0
-    for _ in range(MAX_NEW_PER_ITER):
-        n = counts[t]
-        d = np.sqrt(np.sum((q_target - nodes[k]) ** 2))
-        reached = d <= step
-        if reached:
-            nodes[n] = q_target
-        else:
-            nodes[n] = nodes[k] + (q_target - nodes[k]) * (step / d)
-        n_checks += 1
-        if not edge_ok(nodes[k], nodes[n], res, args):
-            return result, k, n_checks
-        parent[n] = k
-        counts[t] = n + 1
-        k = n
-        if reached:
-            return _REACHED, k, n_checks
-        result = _ADVANCED
-        if not connect:
-            break
-    return result, k, n_checks
+    """`tree.extend` on tree t of several sharing one `counts` array."""
+    r, k, counts[t], n_checks = extend(args, nodes, parent, counts[t], q_target, step, res, connect)
+    return r, k, n_checks
 
 
 @nb.njit(cache=True)
@@ -120,11 +72,11 @@ def rrt_connect_kernel(args, lo, hi, res, step, nodes0, parent0, nodes1, parent1
             nA, pA, nB, pB = nodes1, parent1, nodes0, parent0
         r, k, c = _grow(args, nA, pA, counts, a, q_rand, step, res, False)
         n_checks += c
-        if r != _TRAPPED:
+        if r != TRAPPED:
             target = nA[k].copy()
             r2, k2, c2 = _grow(args, nB, pB, counts, 1 - a, target, step, res, True)
             n_checks += c2
-            if r2 == _REACHED:
+            if r2 == REACHED:
                 link[1 + a] = k
                 link[2 - a] = k2
                 return STATUS_CONNECTED, n_checks

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import NamedTuple
 
 import numba as nb
 import numpy as np
@@ -22,6 +21,7 @@ from ..errors import CompassInputError
 from ..robot.kinematics import check_Q, fk_links_kernel
 from ..robot.model import Q_MAX, Q_MIN, check_q
 from ..robot.spheres import SphereModel, weld_groups
+from .kernel_data import GridData, KernelArgs, RobotSpheres
 from .edge_bounds import edge_valid_adaptive_kernel, motion_bounds
 from .primitives import DistanceGrid, PrimitiveSet, grid_clearance, primitives_distance
 
@@ -55,19 +55,6 @@ class ValidityConfig:
             raise CompassInputError(f"edge_resolution {self.edge_resolution} rad must be in 1e-4..0.5 rad")
 
 
-class KernelArgs(NamedTuple):
-    """Everything the numba validity kernels need about one checker (arrays and tuples):
-    kin (robot kinematics), robot (spheres, see `RobotSpheres`), grid (distance grid),
-    prims (known primitives), limits (joint limits), params (margins)."""
-
-    kin: tuple
-    robot: tuple
-    grid: tuple
-    prims: tuple
-    limits: tuple
-    params: np.ndarray
-
-
 @dataclass(frozen=True, eq=False)
 class _Packed:
     """Kernel arguments (tuples of arrays) of one checker."""
@@ -80,7 +67,7 @@ class _Packed:
     params: np.ndarray = field(default_factory=lambda: np.zeros(4))
 
 
-def _pack_robot(sm: SphereModel, check_self: bool) -> tuple:
+def _pack_robot(sm: SphereModel, check_self: bool) -> RobotSpheres:
     """Sphere arrays + per-link bounding spheres + self pairs grouped by link pair."""
     L = sm.kinematics.n_links
     bi, c, r = sm.body_index, sm.centers_local, sm.radii
@@ -116,8 +103,8 @@ def _pack_robot(sm: SphereModel, check_self: bool) -> tuple:
         lp_run = np.r_[np.searchsorted(runs, np.nonzero(new_lp)[0]), len(runs)].astype(np.int64)
     partner = np.ascontiguousarray(pairs[:, 1].astype(np.int64)) if len(pairs) else np.zeros(0, np.int64)
     clusters = _clusters(c, r, start)
-    return (bi.astype(np.int64), np.ascontiguousarray(c), np.ascontiguousarray(r), start, link_c, link_r,
-            env_link, np.ascontiguousarray(lp), lp_run, run_u, run_start, partner, *clusters)
+    return RobotSpheres(bi.astype(np.int64), np.ascontiguousarray(c), np.ascontiguousarray(r), start, link_c, link_r,
+                        env_link, np.ascontiguousarray(lp), lp_run, run_u, run_start, partner, *clusters)
 
 
 def _bounding_sphere(c: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, float]:
@@ -169,19 +156,19 @@ class ValidityChecker:
         self.grid = grid
         self.obstacles = obstacles or PrimitiveSet.empty()
         self.config = config or ValidityConfig()
-        cfg = self.config
+        config = self.config
         if grid is None:
-            g = (np.zeros((1, 1, 1), np.float32), np.zeros(3), 1.0, False, False)
+            g = GridData(np.zeros((1, 1, 1), np.float32), np.zeros(3), 1.0, False, False)
         else:
-            g = (grid.dist, grid.origin, grid.resolution, True, cfg.outside_grid_free)
-        half_diag = 0.5 * math.sqrt(3.0) * grid.resolution if (grid is not None and cfg.voxel_extent) else 0.0
+            g = GridData(grid.dist, grid.origin, grid.resolution, True, config.outside_grid_free)
+        half_diag = 0.5 * math.sqrt(3.0) * grid.resolution if (grid is not None and config.voxel_extent) else 0.0
         self._p = _Packed(
             kin=sphere_model.kinematics.kernel_args(),
-            robot=_pack_robot(sphere_model, cfg.check_self),
+            robot=_pack_robot(sphere_model, config.check_self),
             grid=g,
             prims=self.obstacles.arrays(),
             limits=(Q_MIN.copy(), Q_MAX.copy()),
-            params=np.array([cfg.margin, cfg.self_margin, half_diag, 0.0]),
+            params=np.array([config.margin, config.self_margin, half_diag, 0.0]),
         )
         self._bounds = motion_bounds(sphere_model, self._p.robot)
 
@@ -278,8 +265,11 @@ def config_valid_kernel(q, kin, robot, grid, prims, limits, params, links, W):
         if not (qmin[j] <= q[j] <= qmax[j]):
             return False
     finger_pos, parent, T_parent_link, joint_kind, joint_index, axis, anchor = kin
-    bi, cl, rad, start, link_c, link_r, env_link, lp, lp_run, run_u, run_start, partner = robot[:12]
-    clu_start, clu_c, clu_r, mem_start, members = robot[12:]
+    cl, rad, start, link_c, link_r = robot.centers, robot.radii, robot.start, robot.link_c, robot.link_r
+    env_link, lp, lp_run = robot.env_link, robot.link_pairs, robot.pair_run
+    run_u, run_start, partner = robot.run_u, robot.run_start, robot.partner
+    clu_start, clu_c, clu_r, mem_start = robot.clu_start, robot.clu_c, robot.clu_r, robot.mem_start
+    members = robot.members
     margin, self_margin, half_diag = params[0], params[1], params[2]
     fk_links_kernel(q, finger_pos, parent, T_parent_link, joint_kind, joint_index, axis, anchor, links)
     L = link_r.shape[0]
@@ -339,7 +329,7 @@ def batch_valid_kernel(Q, kin, robot, grid, prims, limits, params):
     """(N,) validity of Q (N,7), in parallel chunks."""
     N = Q.shape[0]
     out = np.empty(N, np.bool_)
-    L, S = kin[1].shape[0], robot[0].shape[0]
+    L, S = kin.parent.shape[0], robot.radii.shape[0]
     chunk = 256
     for c in nb.prange((N + chunk - 1) // chunk):
         links = np.empty((L, 4, 4))
@@ -352,7 +342,7 @@ def batch_valid_kernel(Q, kin, robot, grid, prims, limits, params):
 @nb.njit(cache=True)
 def edge_valid_kernel(q0, q1, n, kin, robot, grid, prims, limits, params):
     """Validity of the n+1 states q0 + (q1-q0) * k/n, k = 0..n, tested in bisection order."""
-    L, S = kin[1].shape[0], robot[0].shape[0]
+    L, S = kin.parent.shape[0], robot.radii.shape[0]
     links = np.empty((L, 4, 4))
     W = np.empty((S, 3))
     q = np.empty(7)
@@ -378,7 +368,7 @@ def edge_valid_kernel(q0, q1, n, kin, robot, grid, prims, limits, params):
 @nb.njit(cache=True)
 def edge_first_invalid_kernel(q0, q1, n, kin, robot, grid, prims, limits, params):
     """Index k of the first invalid state q0 + (q1-q0) * k/n scanning k = 0..n, or -1."""
-    L, S = kin[1].shape[0], robot[0].shape[0]
+    L, S = kin.parent.shape[0], robot.radii.shape[0]
     links = np.empty((L, 4, 4))
     W = np.empty((S, 3))
     q = np.empty(7)
@@ -394,7 +384,9 @@ def edge_first_invalid_kernel(q0, q1, n, kin, robot, grid, prims, limits, params
 def clearance_kernel(q, kin, robot, grid, prims, limits, params):
     """Smallest (environment distance - radius) [m] over the spheres of moving links."""
     finger_pos, parent, T_parent_link, joint_kind, joint_index, axis, anchor = kin
-    bi, cl, rad, start, link_c, link_r, env_link, lp, lp_run, run_u, run_start, partner = robot[:12]
+    cl, rad, start, link_c, link_r = robot.centers, robot.radii, robot.start, robot.link_c, robot.link_r
+    env_link, lp, lp_run = robot.env_link, robot.link_pairs, robot.pair_run
+    run_u, run_start, partner = robot.run_u, robot.run_start, robot.partner
     links = np.empty((link_r.shape[0], 4, 4))
     fk_links_kernel(q, finger_pos, parent, T_parent_link, joint_kind, joint_index, axis, anchor, links)
     W = np.empty((cl.shape[0], 3))

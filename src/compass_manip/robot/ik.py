@@ -47,13 +47,12 @@ class IKConfig:
             raise CompassInputError("tol_pos must be in (0, 0.01] m and tol_rot in (0, 0.1] rad")
 
 
-class IKStatus(Enum):
-    """SOLVED: at least one solution. IN_COLLISION: solutions exist but the validity checker
+class IKFailure(Enum):
+    """Why IK returned no solution. IN_COLLISION: solutions exist but the validity checker
     rejected all of them. NOT_CONVERGED: analytic candidates existed but none refined to the
-    tolerance. NO_ANALYTIC_SOLUTION: frankik found none for any sampled q7
-    (pose out of reach, or its q7 band was missed). Listed in order of preference."""
+    tolerance. NO_ANALYTIC_SOLUTION: frankik found none for any sampled q7 (pose out of
+    reach, or its q7 band was missed). Listed from the most to the least informative."""
 
-    SOLVED = "solved"
     IN_COLLISION = "in_collision"
     NOT_CONVERGED = "not_converged"
     NO_ANALYTIC_SOLUTION = "no_analytic_solution"
@@ -70,11 +69,11 @@ class IKResult:
     rot_err: np.ndarray
     T_world_targets: np.ndarray
     frame: str
-    status: IKStatus
+    failure: IKFailure | None  # None: at least one solution
 
     @property
     def success(self) -> bool:
-        return self.solutions.shape[0] > 0
+        return self.failure is None
 
     @property
     def best(self) -> np.ndarray | None:
@@ -160,28 +159,28 @@ class PandaIK:
         only collision-free solutions. retry: sweep n_q7_retry values of q7 if n_q7 found none."""
         T_world_frame = check_rigid(T_world_frame, "T_world_frame")
         q_ref = check_q(q_ref, "q_ref")
-        cfg = self.config
-        n_q7 = cfg.n_q7 if n_q7 is None else int(n_q7)
+        config = self.config
+        n_q7 = config.n_q7 if n_q7 is None else int(n_q7)
         if not 1 <= n_q7 <= 1000:
             raise CompassInputError(f"n_q7 {n_q7} is not allowed; use 1..1000")
         T_world_hand = T_world_frame @ inv_T(self.kin.T_hand_frame(frame))
         T_base_flange = self.T_base_world @ T_world_hand @ self.T_hand_link8
         S, pe, re, n_cand = self._sweep(T_world_hand, T_base_flange, q_ref, n_q7)
-        if retry and S.shape[0] == 0 and cfg.n_q7_retry > n_q7:
-            S, pe, re, n_cand = self._sweep(T_world_hand, T_base_flange, q_ref, cfg.n_q7_retry)
-        status = (IKStatus.SOLVED if len(S) else
-                  IKStatus.NOT_CONVERGED if n_cand else IKStatus.NO_ANALYTIC_SOLUTION)
+        if retry and S.shape[0] == 0 and config.n_q7_retry > n_q7:
+            S, pe, re, n_cand = self._sweep(T_world_hand, T_base_flange, q_ref, config.n_q7_retry)
+        failure = (None if len(S) else
+                   IKFailure.NOT_CONVERGED if n_cand else IKFailure.NO_ANALYTIC_SOLUTION)
         if validity is not None and len(S):
             ok = np.asarray(validity.are_valid(S), bool)
             S, pe, re = S[ok], pe[ok], re[ok]
-            status = IKStatus.SOLVED if len(S) else IKStatus.IN_COLLISION
+            failure = None if len(S) else IKFailure.IN_COLLISION
         T = np.broadcast_to(T_world_frame, (len(S), 4, 4))
-        return _ordered(S, pe, re, T, q_ref, cfg.dedupe_tol, frame, status)
+        return _ordered(S, pe, re, T, q_ref, config.dedupe_tol, frame, failure)
 
     def _sweep(self, T_world_hand, T_base_flange, q_ref, n_q7):
         """Refined analytic solutions (k,7), pos_err (k,), rot_err (k,) over a q7 sweep, and
         the number of analytic candidates within the limits."""
-        cfg = self.config
+        config = self.config
         q7s = np.concatenate([[q_ref[6]], np.linspace(Q_MIN[6], Q_MAX[6], n_q7 + 2)[1:-1]])
         cands = []
         for q7 in q7s:
@@ -192,22 +191,22 @@ class PandaIK:
         for q in cands:
             q = np.clip(q, Q_MIN, Q_MAX)
             qr, pe, re = refine_kernel(q, T_world_hand, self.kin.hand_index, *args, Q_MIN, Q_MAX,
-                                       cfg.refine_iters, cfg.damping, cfg.tol_pos, cfg.tol_rot)
-            if pe <= cfg.tol_pos and re <= cfg.tol_rot:
+                                       config.refine_iters, config.damping, config.tol_pos, config.tol_rot)
+            if pe <= config.tol_pos and re <= config.tol_rot:
                 sols.append(qr)
                 pes.append(pe)
                 res.append(re)
         return np.array(sols).reshape(-1, 7), np.array(pes), np.array(res), len(cands)
 
 
-def _ordered(S, pe, re, T, q_ref, tol, frame, status) -> IKResult:
+def _ordered(S, pe, re, T, q_ref, tol, frame, failure) -> IKResult:
     order = np.argsort(np.linalg.norm(S - q_ref, axis=1), kind="stable")
     keep: list[int] = []
     for i in order:
         if all(np.max(np.abs(S[i] - S[k])) > tol for k in keep):
             keep.append(int(i))
     k = np.array(keep, np.int64)
-    return IKResult(S[k].reshape(-1, 7), pe[k], re[k], np.array(T)[k].reshape(-1, 4, 4), frame, status)
+    return IKResult(S[k].reshape(-1, 7), pe[k], re[k], np.array(T)[k].reshape(-1, 4, 4), frame, failure)
 
 
 @lru_cache(maxsize=8)
@@ -259,7 +258,7 @@ def ik_look_at(point: np.ndarray, distance: float, q_ref: np.ndarray, rng: np.ra
         phi = rng.uniform(0.0, 2.0 * math.pi, n_samples)
     s = np.sqrt(np.maximum(0.0, 1.0 - z * z))
     dirs = np.stack([s * np.cos(phi), s * np.sin(phi), z], 1)  # from the point up to the eye
-    sols, pes, res, Ts, statuses = [], [], [], [], set()
+    sols, pes, res, Ts, failures = [], [], [], [], set()
     for d in dirs:
         T0 = look_at(point + distance * d, point, up=(1.0, 0.0, 0.0) if d[2] > 0.99 else (0.0, 0.0, 1.0))
         for roll in (0.0, 0.5 * math.pi, math.pi, 1.5 * math.pi):
@@ -270,7 +269,8 @@ def ik_look_at(point: np.ndarray, distance: float, q_ref: np.ndarray, rng: np.ra
             pes.append(r.pos_err)
             res.append(r.rot_err)
             Ts.append(r.T_world_targets)
-            statuses.add(r.status)
-    status = next(s for s in IKStatus if s in statuses)  # the most preferred status of any view
+            failures.add(r.failure)
+    # no failure if any view was solved, else the most informative failure of any view
+    failure = None if None in failures else next(f for f in IKFailure if f in failures)
     return _ordered(np.vstack(sols), np.concatenate(pes), np.concatenate(res), np.concatenate(Ts),
-                    q_ref, solver.config.dedupe_tol, "cam", status)
+                    q_ref, solver.config.dedupe_tol, "cam", failure)

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import lru_cache
+from typing import NamedTuple
 
 import numba as nb
 import numpy as np
@@ -220,6 +221,19 @@ def check_Q(Q: np.ndarray, name: str = "Q") -> np.ndarray:
     return np.ascontiguousarray(Q)
 
 
+class KinematicsData(NamedTuple):
+    """The kinematic tree as kernel arguments: finger_pos [m], parent (L,), T_parent_link
+    (L, 4, 4), joint_kind (L,), joint_index (L,), axis (L, 3), anchor (L, 3) [m]."""
+
+    finger_pos: np.ndarray
+    parent: np.ndarray
+    T_parent_link: np.ndarray
+    joint_kind: np.ndarray
+    joint_index: np.ndarray
+    axis: np.ndarray
+    anchor: np.ndarray
+
+
 class PandaKinematics:
     """FK, Jacobian and manipulability of the Panda built by `build_robot_spec(robot_config)`.
 
@@ -250,10 +264,11 @@ class PandaKinematics:
     def n_links(self) -> int:
         return self.tree.n_links
 
-    def kernel_args(self) -> tuple:
-        """(finger_pos, parent, T_parent_link, joint_kind, joint_index, axis, anchor) for the kernels."""
+    def kernel_args(self) -> "KinematicsData":
+        """The kinematic tree's arrays for the kernels (`fk_links_kernel` argument order)."""
         t = self.tree
-        return (self.finger_pos, t.parent, t.T_parent_link, t.joint_kind, t.joint_index, t.axis, t.anchor)
+        return KinematicsData(self.finger_pos, t.parent, t.T_parent_link, t.joint_kind, t.joint_index, t.axis,
+                              t.anchor)
 
     def T_hand_frame(self, frame: str) -> np.ndarray:
         """Fixed transform hand flange -> frame ('tcp', 'cam' or 'hand')."""

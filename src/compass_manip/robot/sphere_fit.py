@@ -232,10 +232,26 @@ def _fit_link(hulls: list[np.ndarray], fit: SphereFitConfig, protrusion: float |
     return centers[keep], radii[keep]
 
 
+#: Decimals [m] kept when hashing geometry: compiled hulls and link transforms differ in
+#: their last bits between machines, and a cache key must not.
+HASH_DECIMALS = 6
+
+
+def stable_bytes(a: np.ndarray, sort_rows: bool = False) -> bytes:
+    """Bytes of an array for cache keys: floats rounded to HASH_DECIMALS (-0.0 folded into
+    0.0), rows sorted when their order carries no meaning (hull vertices)."""
+    a = np.asarray(a)
+    if a.dtype.kind == "f":
+        a = np.round(a.astype(np.float64), HASH_DECIMALS) + 0.0
+    if sort_rows and a.ndim == 2 and len(a):
+        a = a[np.lexsort(a.T[::-1])]
+    return np.ascontiguousarray(a).tobytes()
+
+
 def _geometry_hash(hulls: list[list[np.ndarray]], fit: SphereFitConfig) -> str:
     h = hashlib.sha256(fit.key().encode())
     for link in hulls:
         h.update(b"|")
         for P in link:
-            h.update(np.ascontiguousarray(P, dtype=np.float64).tobytes())
+            h.update(stable_bytes(P, sort_rows=True))
     return h.hexdigest()[:16]

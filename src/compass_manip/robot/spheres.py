@@ -22,7 +22,7 @@ import numba as nb
 import numpy as np
 
 from .kinematics import PandaKinematics, check_Q, fk_links_kernel
-from .sphere_fit import FINE_FIT, SphereFitConfig, _fit_link, _geometry_hash, collision_hulls  # noqa: F401
+from .sphere_fit import FINE_FIT, SphereFitConfig, stable_bytes, _fit_link, _geometry_hash, collision_hulls  # noqa: F401
 from .model import GRIPPER_MAX_WIDTH, Q_HOME, Q_MAX, Q_MIN, RobotConfig, build_robot_spec, check_q
 
 
@@ -200,7 +200,7 @@ def _cached_model(config: RobotConfig, finger_width: float, fit: SphereFitConfig
     t = kin.tree
     h = hashlib.sha256(f"({fit.key()}, {kin.finger_pos!r})".encode())
     for a in (bi, c, r, t.T_parent_link[1:], t.axis, t.anchor, t.parent, t.joint_kind):
-        h.update(np.ascontiguousarray(a).tobytes())
+        h.update(stable_bytes(a))
     pairs = _cached(f"panda_selfpairs_{h.hexdigest()[:16]}",
                     lambda: {"pairs": self_collision_pairs(kin, bi, c, r, fit)})["pairs"]
     for a in (bi, c, r, pairs):
