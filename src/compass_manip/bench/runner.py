@@ -63,7 +63,7 @@ def run_sweep(config: SweepConfig, db: str, trial_fn: Callable | None = None, pr
     """Run `config`'s trials missing from the results store `db`.
 
     progress: a tqdm bar on stderr (done / total, ETA, successes per method); None = only
-    on a terminal. Returns what was run; trial errors and wall-time kills are recorded as
+    on a terminal, True = always, False = never. Returns what was run; trial errors and wall-time kills are recorded as
     failures and the sweep goes on.
     """
     t0 = time.perf_counter()
