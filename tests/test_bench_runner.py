@@ -194,3 +194,35 @@ def test_synthetic_trial_is_deterministic_and_json_able():
     a, b = synthetic_trial(spec), synthetic_trial(spec)
     assert json.dumps(a) == json.dumps(b)
     assert json.dumps(synthetic_trial(Spec("compass", 3, 4, 6, 6))) != json.dumps(a)  # trials differ
+
+
+def test_store_of_another_trial_function_is_not_mixed(tmp_path):
+    db = str(tmp_path / "r.sqlite")
+    config = SweepConfig(methods=("fv",), levels=(1,), scenes=1, trials=1)
+    run_sweep(config, db, trial_fn=_fast(), progress=False)
+    with pytest.raises(CompassInputError, match="not mixed"):
+        run_sweep(config, db, trial_fn=_dying_trial, progress=False)
+
+
+def _racing_trial(spec, db):
+    """Stores its own row first, as a second sweep on the same file would."""
+    with ResultsStore(db) as s:
+        from compass_manip.bench.runner import record_of
+        from compass_manip.bench.pool import Outcome
+
+        config, result = synthetic_trial(spec)
+        s.add(record_of(Outcome(spec, config, {**result, "decisions": -1}, None, None, 0.0),
+                        "compass_manip.bench.synthetic:synthetic_trial"))
+    return synthetic_trial(spec)
+
+
+def test_trial_stored_first_by_a_concurrent_run_is_kept_once(tmp_path, capsys):
+    db = str(tmp_path / "r.sqlite")
+    ResultsStore(db, create=True).close()
+    fn = partial(_racing_trial, db=db)
+    summary = run_sweep(SweepConfig(methods=("gse",), levels=(1,), scenes=2, trials=1), db, trial_fn=fn,
+                        progress=False)
+    assert summary.ran == 2
+    with ResultsStore(db) as s:
+        recs = s.records()
+    assert len(recs) == 2 and all(r.result["decisions"] == -1 for r in recs)  # the first writer's rows

@@ -8,12 +8,14 @@ Ray) before the first trial starts.
 """
 from __future__ import annotations
 
+import sqlite3
 import sys
 import time
 from collections import Counter
 from dataclasses import dataclass
 from typing import Callable
 
+from ..errors import CompassInputError
 from .pool import Outcome, run_local
 from .store import ResultsStore, TrialRecord
 from .sweep import REAL_TRIAL_FN, SweepConfig, resolve_trial_fn, validate
@@ -77,9 +79,14 @@ def run_sweep(config: SweepConfig, db: str, trial_fn: Callable | None = None, pr
     own_store = store is None
     store = ResultsStore(db, create=True) if own_store else store
     try:
+        records = store.records()
+        other_fns = sorted({r.trial_fn for r in records} - {name})
+        if other_fns:
+            raise CompassInputError(f"results store {db!r} holds trials of {', '.join(other_fns)}; this sweep runs "
+                                    f"{name}: results of two trial functions are not mixed, use a new --db")
         specs = config.specs()
         wanted = {s.key for s in specs}
-        stored = [r for r in store.records() if r.key in wanted]
+        stored = [r for r in records if r.key in wanted]
         todo = [s for s in specs if s.key not in {r.key for r in stored}]
         successes = Counter(r.method for r in stored if r.success)
         done = Counter(r.method for r in stored)
@@ -98,7 +105,11 @@ def run_sweep(config: SweepConfig, db: str, trial_fn: Callable | None = None, pr
             try:
                 for outcome in outcomes:
                     record = record_of(outcome, name)
-                    store.add(record)
+                    try:
+                        store.add(record)
+                    except sqlite3.IntegrityError:  # another sweep on the same file stored it first
+                        bar.write(f"trial {record.key} was already stored by another run; kept the first")
+                        continue
                     done[record.method] += 1
                     successes[record.method] += int(record.success)
                     if record.failure is not None:

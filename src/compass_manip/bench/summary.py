@@ -174,8 +174,10 @@ def run_overview(records: list[TrialRecord]) -> Table:
     for m in order_methods(by_method):
         recs = by_method[m]
         w = median_p90([r.wall_s for r in recs], digits=2)
-        rows.append((m, str(len(recs)), ", ".join(sorted({str(r.level) for r in recs})),
-                     str(len({(r.level, r.scene) for r in recs})), ", ".join(sorted({r.trial_fn for r in recs})),
+        rows.append((m, str(len(recs)), ", ".join(str(x) for x in sorted({r.level for r in recs})),
+                     str(len({(r.level, r.scene) for r in recs})), ", ".join(str(x) for x in sorted({r.seed for r in recs})),
+                     ", ".join(sorted({r.trial_fn for r in recs})),
                      f"{w['median']} / {w['p90']}", f"{np.sum([r.wall_s for r in recs]) / 3600:.2f}"))
-    return Table("Trials run", ("Method", "Trials", "Levels", "Scenes", "Trial function", "Wall s median / p90",
+    return Table("Trials run", ("Method", "Trials", "Levels", "Scenes", "Base seeds", "Trial function",
+                                "Wall s median / p90",
                                 "Wall h total"), tuple(rows))
