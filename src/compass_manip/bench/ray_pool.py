@@ -39,12 +39,15 @@ def _init(ray, address: str) -> bool:
 
 def run_ray(trial_fn: Callable, specs: Iterable[Spec], workers: int, wall_cap_s: float,
             address: str = "local") -> Iterator[Outcome]:
-    """Run every spec as a Ray task, at most `workers` at a time; yield each Outcome as it ends."""
+    """Run every spec as a Ray task, at most `workers` (and the cluster's CPUs) at a time;
+    yield each Outcome as it ends. The wall-time cap counts from a task's submission."""
     specs = list(specs)
     if not specs:
         return
     ray = import_ray()
     started = _init(ray, address)
+    # never more in flight than CPUs: a queued task's wall clock would run against the cap
+    workers = max(1, min(workers, int(ray.cluster_resources().get("CPU", 1))))
     task = ray.remote(num_cpus=1, max_retries=0)(call_trial)
     fn_ref = ray.put(trial_fn)
     pending = list(reversed(specs))

@@ -26,7 +26,8 @@ def add_arguments(p) -> None:
     p.add_argument("--trials", type=int, default=10, help="trials per scene, each with its own trial seed (default 10)")
     p.add_argument("--seed", type=int, default=0, help="base seed of scenes and trials (default 0)")
     p.add_argument("--workers", type=int, default=max(1, (os.cpu_count() or 2) // 2),
-                   help="trials run in parallel (default: half the CPUs)")
+                   help="trials run in parallel (default: half the CPUs here; with --ray, up to the "
+                        "cluster's CPUs: give a large N)")
     p.add_argument("--db", default="results.sqlite", help="results store; created if missing (default results.sqlite)")
     p.add_argument("--ray", default=None, metavar="ADDRESS",
                    help="run on Ray: 'local' for a local instance, 'auto' or ray://HOST:PORT for a cluster "
