@@ -59,7 +59,10 @@ def plot_explored(records, path: str) -> str:
             ax.fill_between(t_grid, np.clip(mean - std, 0, 1), np.clip(mean + std, 0, 1), alpha=0.2,
                             color=line.get_color())
         ax.set(title=f"Level {lv}", xlabel="time [s]", ylabel="explored fraction", ylim=(0, 1.02))
-        ax.legend(fontsize=7)
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(fontsize=7)
+        else:
+            ax.text(0.5, 0.5, "no explored curves", ha="center", va="center", transform=ax.transAxes)
     fig.savefig(path, dpi=100)
     return path
 
