@@ -109,3 +109,16 @@ def test_resample_curve_holds_values():
     y = resample_curve([[1.0, 0.2], [2.0, 0.5], [0.5, 0.1]], grid)
     np.testing.assert_allclose(y, [0.0, 0.1, 0.2, 0.5, 0.5])
     np.testing.assert_allclose(resample_curve([], grid), 0.0)
+
+
+def test_report_of_only_failed_ablation_trials_still_renders(tmp_path):
+    db = str(tmp_path / "r.sqlite")
+    with ResultsStore(db, create=True) as s:
+        for t in range(2):
+            s.add(TrialRecord("compass-no-nfa", 3, 0, t, 0, False, "wall_time_exceeded", "killed", "tests:hand",
+                              None, None, 900.0))
+    files = write_report(db, str(tmp_path / "out"))
+    md = open(files.markdown).read()
+    assert "No main method" in md and "Absent from this results file: compass." in md
+    assert "| compass-no-nfa | L3 | 2 | 0 | 2 |" in md
+    assert open(files.html).read().count("data:image/png;base64,") == 3
