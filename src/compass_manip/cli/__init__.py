@@ -17,6 +17,8 @@ SUBCOMMANDS = {
     "scenes": "scenes",
     "demo": "demo",
     "mbm": "mbm",
+    "bench": "bench",
+    "report": "report",
 }
 
 
