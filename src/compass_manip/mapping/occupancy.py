@@ -21,8 +21,8 @@ from typing import Callable
 import numba
 import numpy as np
 
-from ..errors import CompassInputError
-from ..geometry import check_rigid
+from ..errors import CompassInputError, real_number
+from ..geometry import check_intrinsics, check_rigid
 from . import raycast
 from .integration import integrate_scan
 
@@ -96,6 +96,27 @@ class MapConfig:
         n = np.ceil(hi / self.resolution - 1e-9) - np.floor(lo / self.resolution + 1e-9)
         if np.prod(n) > 2e8:
             raise CompassInputError(f"map of {n.astype(int)} voxels is too large; at most 2e8 voxels")
+
+
+def check_depth(depth: np.ndarray) -> np.ndarray:
+    """A depth image (H, W) of z-depths [m] as given, or CompassInputError: it must be a
+    non-empty 2-D floating-point array (metres). Integer images are refused, since sensors
+    and PNG files store millimetres as integers; bool images are masks, not depth."""
+    d = np.asarray(depth)
+    if d.ndim != 2 or d.size == 0:
+        raise CompassInputError(f"depth must be a non-empty (H, W) image [m], got shape {d.shape}")
+    if not np.issubdtype(d.dtype, np.floating):
+        hint = (" (integer depth is usually millimetres: pass depth.astype(np.float32) / 1000, with 0 for "
+                "no return)" if np.issubdtype(d.dtype, np.integer) else "")
+        raise CompassInputError(f"depth has dtype {d.dtype}; floating-point metres are required{hint}")
+    return d
+
+
+def _float_array(value, name: str) -> np.ndarray:
+    try:
+        return np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise CompassInputError(f"{name} must be numbers [m], got {value!r:.60}") from exc
 
 
 @dataclass(frozen=True)
@@ -186,6 +207,9 @@ class OccupancyMap:
         """Integrate a depth image (H, W) of z-depths [m] taken from camera pose T_world_cam.
 
         K: 3x3 intrinsics [px], pixel centres at integer coordinates (OpenCV).
+        depth must be floating point in metres (float16/32/64): integer depth (e.g. a
+        sensor's millimetres) or a bool mask raises CompassInputError saying how to convert.
+        K must be a pinhole matrix without skew whose principal point fits the image.
         NaN, 0 and negative depths are ignored. +inf (no return) and points farther than
         max_range [m] (Euclidean, along the ray, as OctoMap's maxrange) clear free space
         up to max_range with no hit. point_filter (robot self-filter) drops the pixels
@@ -193,13 +217,12 @@ class OccupancyMap:
         non-rigid pose raises CompassInputError and leaves the map unchanged.
         """
         T = check_rigid(T_world_cam, "T_world_cam")
-        depth = np.asarray(depth)
-        if depth.ndim != 2 or depth.size == 0:
-            raise CompassInputError(f"depth must be a non-empty (H, W) image [m], got shape {depth.shape}")
-        K = np.asarray(K, dtype=np.float64)
-        if K.shape != (3, 3) or not np.all(np.isfinite(K)) or K[0, 0] <= 0 or K[1, 1] <= 0:
-            raise CompassInputError(f"K must be a finite 3x3 pinhole matrix with fx, fy > 0, got {K.tolist()}")
-        self._check_range(max_range)
+        max_range = self._check_range(max_range)
+        depth = check_depth(depth)
+        K = check_intrinsics(K, depth.shape)
+        if point_filter is not None and not callable(point_filter):
+            raise CompassInputError(f"point_filter {point_filter!r:.60} is not callable; give a function "
+                                    "points (N, 3) -> bool (N,) or None")
         points, kind = raycast.backproject(
             np.ascontiguousarray(depth, dtype=np.float32), K[0, 0], K[1, 1], K[0, 2], K[1, 2],
             np.ascontiguousarray(T[:3, :3]), np.ascontiguousarray(T[:3, 3]), self.config.pixel_stride,
@@ -215,14 +238,14 @@ class OccupancyMap:
     ) -> IntegrationStats:
         """Integrate measured world points (N, 3) [m] seen from origin_world (3,) [m]:
         OctoMap's `insertPointCloud(points, origin, maxrange)` on this grid."""
-        p = np.asarray(points_world, dtype=np.float64)
-        o = np.asarray(origin_world, dtype=np.float64)
+        p = _float_array(points_world, "points_world")
+        o = _float_array(origin_world, "origin_world")
         if p.ndim != 2 or p.shape[1] != 3 or not np.all(np.isfinite(p)):
             raise CompassInputError(f"points_world must be finite (N, 3) [m], got shape {p.shape}")
         if o.shape != (3,) or not np.all(np.isfinite(o)):
             raise CompassInputError(f"origin_world must be a finite 3-vector [m], got {o}")
-        if max_range != math.inf:
-            self._check_range(max_range)
+        if not (isinstance(max_range, (int, float, np.floating, np.integer)) and max_range == math.inf):
+            max_range = self._check_range(max_range)
         kind = np.full(len(p), raycast.KIND_POINT, np.uint8)
         return self._integrate(np.ascontiguousarray(p), kind, o, max_range, point_filter)
 
@@ -247,9 +270,11 @@ class OccupancyMap:
         return IntegrationStats(n_rays, n_filtered, int(n_free), int(n_hit), int(n_traced))
 
     @staticmethod
-    def _check_range(max_range: float) -> None:
-        if not (isinstance(max_range, (int, float)) and math.isfinite(max_range) and max_range > 0):
-            raise CompassInputError(f"max_range {max_range} m is not allowed; use a finite value > 0")
+    def _check_range(max_range) -> float:
+        v = real_number(max_range, "max_range", "a finite number > 0 [m]")
+        if not v > 0.0:
+            raise CompassInputError(f"max_range {max_range} m is not allowed; use a finite value > 0 [m]")
+        return v
 
     def set_voxels(self, index: np.ndarray, state: VoxelState) -> None:
         """Force voxels (N, 3) indices to a state: FREE / OCCUPIED get the clamping log-odds
