@@ -40,7 +40,10 @@ def is_rigid(T: np.ndarray, tol: float = 1e-6) -> bool:
 
 def check_rigid(T: np.ndarray, name: str = "T") -> np.ndarray:
     """Return T as float64 or raise CompassInputError naming the problem."""
-    T = np.asarray(T, dtype=np.float64)
+    try:
+        T = np.asarray(T, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise CompassInputError(f"{name} must be a 4x4 rigid transform of numbers, got {T!r:.80}") from exc
     if T.shape != (4, 4):
         raise CompassInputError(f"{name} must be a 4x4 rigid transform, got shape {T.shape}")
     if not np.all(np.isfinite(T)):

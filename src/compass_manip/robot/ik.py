@@ -17,7 +17,7 @@ from functools import lru_cache
 import numba as nb
 import numpy as np
 
-from ..errors import CompassInputError
+from ..errors import CompassInputError, real_number
 from ..geometry import check_rigid, inv_T, look_at
 from .kinematics import PandaKinematics, fk_links_kernel, jacobian_kernel
 from .model import Q_MAX, Q_MIN, RobotConfig, check_q
@@ -240,10 +240,14 @@ def ik_look_at(point: np.ndarray, distance: float, q_ref: np.ndarray, rng: np.ra
     (rng: explicit generator; None = a fixed Fibonacci pattern), each with 4 camera rolls;
     solutions from all views are merged and ordered by joint distance to q_ref.
     """
-    point = np.asarray(point, np.float64)
+    try:
+        point = np.asarray(point, np.float64)
+    except (TypeError, ValueError) as exc:
+        raise CompassInputError(f"point must be 3 finite coordinates [m], got {point!r:.80}") from exc
     if point.shape != (3,) or not np.all(np.isfinite(point)):
         raise CompassInputError(f"point must be 3 finite coordinates [m], got {point}")
-    if not (np.isfinite(distance) and 0.05 <= distance <= 2.0):
+    distance = real_number(distance, "distance", "0.05..2 m")
+    if not (0.05 <= distance <= 2.0):
         raise CompassInputError(f"distance {distance} m is not allowed; use 0.05..2 m")
     if not 1 <= n_samples <= 10000:
         raise CompassInputError(f"n_samples {n_samples} is not allowed; use 1..10000")
