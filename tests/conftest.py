@@ -52,3 +52,50 @@ def mbm_archive() -> str:
     """Path of the MotionBenchMaker archive shipped in data/; a missing file fails the test."""
     assert MBM_ARCHIVE.is_file(), f"{MBM_ARCHIVE} is missing: it ships with the repository (data/README.md)"
     return str(MBM_ARCHIVE)
+
+
+# ----------------------------------------------------------------------------- MuJoCo oracles
+def mbm_mujoco_scene(problem):
+    """The Panda + hand and a MotionBenchMaker problem's obstacles as MuJoCo geoms:
+    (model, data, set of obstacle geom ids). The oracle for collision tests and floors."""
+    import mujoco
+    import numpy as np
+
+    from compass_manip.geometry import R_to_quat
+    from compass_manip.robot.model import build_robot_spec
+
+    spec = build_robot_spec(actuators=False)
+    G = mujoco.mjtGeom
+    for i, (T, h) in enumerate(problem.boxes):
+        spec.worldbody.add_geom(name=f"obs_b{i}", type=G.mjGEOM_BOX, size=list(h), pos=list(T[:3, 3]),
+                                quat=list(R_to_quat(T[:3, :3])))
+    for i, (T, r, h) in enumerate(problem.cylinders):
+        spec.worldbody.add_geom(name=f"obs_c{i}", type=G.mjGEOM_CYLINDER, size=[r, h, 0], pos=list(T[:3, 3]),
+                                quat=list(R_to_quat(T[:3, :3])))
+    for i, (c, r) in enumerate(problem.spheres):
+        spec.worldbody.add_geom(name=f"obs_s{i}", type=G.mjGEOM_SPHERE, size=[r, 0, 0], pos=list(np.asarray(c)))
+    m = spec.compile()
+    obstacles = {g for g in range(m.ngeom) if m.geom(g).name.startswith("obs_")}
+    assert len(obstacles) == len(problem.boxes) + len(problem.cylinders) + len(problem.spheres)
+    return m, mujoco.MjData(m), obstacles
+
+
+def mujoco_penetrating_states(scene, Q, finger_width) -> int:
+    """How many configurations Q (n, 7) [rad] put a moving robot geom into an obstacle
+    (MuJoCo contacts with negative distance); scene = mbm_mujoco_scene(...)."""
+    import mujoco
+
+    m, d, obstacles = scene
+    base = m.body("panda_link0").id
+    n = 0
+    for q in Q:
+        d.qpos[:7] = q
+        d.qpos[7:9] = 0.5 * finger_width
+        mujoco.mj_kinematics(m, d)
+        mujoco.mj_collision(m, d)
+        c = d.contact[: d.ncon]
+        for a, b, dist in zip(c.geom1, c.geom2, c.dist):
+            if dist < 0 and ((a in obstacles) != (b in obstacles)) and m.geom_bodyid[b if a in obstacles else a] != base:
+                n += 1
+                break
+    return n
