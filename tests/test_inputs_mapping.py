@@ -266,3 +266,32 @@ def test_random_tail_after_a_valid_header_stays_within_memory(tmp_path):
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=300)
     assert out.returncode == 0, out.stderr[-2000:]
     assert out.stdout.strip() == "40"
+
+
+JUNK = st.sampled_from(["abc", None, [1, 2], [[1, 2, 3], [1, 2]], {"x": 1}, np.nan, [np.nan] * 3, True, object(),
+                        [1.0, 2.0, 3.0], np.zeros((2, 3)), 0.0, -1.0, 7])
+
+
+@given(field=st.sampled_from(["box_min", "box_max", "resolution", "prob_hit", "prob_miss", "clamp_min",
+                              "clamp_max", "occupancy_threshold", "pixel_stride", "ray_grouping"]), value=JUNK)
+def test_map_config_fields_typed_error_or_valid(field, value):
+    try:
+        config = MapConfig(**{**CONFIG.__dict__, field: value})
+    except CompassInputError:
+        return
+    OccupancyMap(config)  # an accepted config builds a map
+
+
+@given(call=st.sampled_from(["set_voxels", "set_box", "state_at", "world_to_voxel", "known_fraction",
+                             "integrate_points"]), a=JUNK, b=JUNK)
+def test_map_methods_typed_error_and_no_change(call, a, b):
+    occ = OccupancyMap(CONFIG)
+    occ.set_box([0.1, 0.1, 0.1], [0.2, 0.2, 0.2], VoxelState.FREE)
+    before = _snapshot(occ)
+    f = {"set_voxels": lambda: occ.set_voxels(a, b), "set_box": lambda: occ.set_box(a, [0.3] * 3, b),
+         "state_at": lambda: occ.state_at(a), "world_to_voxel": lambda: occ.world_to_voxel(a),
+         "known_fraction": lambda: occ.known_fraction(a, b), "integrate_points": lambda: occ.integrate_points(a, b)}
+    try:
+        f[call]()
+    except CompassInputError:
+        assert _snapshot(occ) == before, "a rejected call changed the map"

@@ -25,3 +25,24 @@ def real_number(value, name: str, allowed: str = "a finite number") -> float:
     if not math.isfinite(v):
         raise CompassInputError(f"{name} = {v} is not allowed; use {allowed}")
     return v
+
+
+def float_array(value, name: str, what: str = "numbers"):
+    """`value` as a float64 numpy array, or CompassInputError if it is not numbers
+    (text, ragged lists, None inside, objects)."""
+    import numpy as np
+
+    try:
+        return np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise CompassInputError(f"{name} must be {what}, got {value!r:.80}") from exc
+
+
+def points_array(value, name: str = "points"):
+    """`value` as float64 points (N, 3) [m] (any array whose size is a multiple of 3 is
+    read as consecutive x, y, z), or CompassInputError if it is not numbers or its size is
+    not a multiple of 3."""
+    p = float_array(value, name, "(N, 3) numbers [m]")
+    if p.size % 3:
+        raise CompassInputError(f"{name} must have shape (N, 3) [m], got {p.shape}")
+    return p.reshape(-1, 3)

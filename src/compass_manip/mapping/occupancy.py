@@ -21,7 +21,7 @@ from typing import Callable
 import numba
 import numpy as np
 
-from ..errors import CompassInputError, real_number
+from ..errors import CompassInputError, real_number, float_array, points_array
 from ..geometry import check_intrinsics, check_rigid
 from . import raycast
 from .integration import integrate_scan
@@ -72,8 +72,10 @@ class MapConfig:
     ray_grouping: int = 1
 
     def __post_init__(self) -> None:
-        lo = np.asarray(self.box_min, dtype=float)
-        hi = np.asarray(self.box_max, dtype=float)
+        lo = float_array(self.box_min, "MapConfig.box_min", "3 finite numbers [m]")
+        hi = float_array(self.box_max, "MapConfig.box_max", "3 finite numbers [m]")
+        for name in ("resolution", "prob_hit", "prob_miss", "clamp_min", "clamp_max", "occupancy_threshold"):
+            real_number(getattr(self, name), f"MapConfig.{name}")
         if lo.shape != (3,) or hi.shape != (3,) or not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi))):
             raise CompassInputError(f"box_min {self.box_min} / box_max {self.box_max} must be finite 3-vectors [m]")
         if not np.all(hi > lo):
@@ -89,9 +91,9 @@ class MapConfig:
                 f"clamp_min {self.clamp_min}, occupancy_threshold {self.occupancy_threshold}, clamp_max "
                 f"{self.clamp_max} not allowed; need 0 < clamp_min < threshold < clamp_max < 1"
             )
-        if not (isinstance(self.pixel_stride, int) and 1 <= self.pixel_stride <= 16):
+        if isinstance(self.pixel_stride, bool) or not (isinstance(self.pixel_stride, int) and 1 <= self.pixel_stride <= 16):
             raise CompassInputError(f"pixel_stride {self.pixel_stride} is not allowed; use an int 1..16")
-        if self.ray_grouping not in (0, 1, 2):
+        if isinstance(self.ray_grouping, bool) or not isinstance(self.ray_grouping, int) or self.ray_grouping not in (0, 1, 2):
             raise CompassInputError(f"ray_grouping {self.ray_grouping} is not allowed; use 0, 1 or 2")
         n = np.ceil(hi / self.resolution - 1e-9) - np.floor(lo / self.resolution + 1e-9)
         if np.prod(n) > 2e8:
@@ -110,6 +112,14 @@ def check_depth(depth: np.ndarray) -> np.ndarray:
                 "no return)" if np.issubdtype(d.dtype, np.integer) else "")
         raise CompassInputError(f"depth has dtype {d.dtype}; floating-point metres are required{hint}")
     return d
+
+
+def _voxel_state(state) -> VoxelState:
+    try:
+        return VoxelState(state)
+    except (ValueError, TypeError) as exc:
+        raise CompassInputError(f"voxel state {state!r:.40} is not allowed; use a VoxelState "
+                                "(UNKNOWN 0, FREE 1, OCCUPIED 2)") from exc
 
 
 def _float_array(value, name: str) -> np.ndarray:
@@ -177,12 +187,12 @@ class OccupancyMap:
 
     def world_to_voxel(self, points_world: np.ndarray) -> np.ndarray:
         """Voxel indices (N, 3) int64 of world points (N, 3) [m]; may lie outside the grid."""
-        p = np.asarray(points_world, dtype=np.float64).reshape(-1, 3)
+        p = points_array(points_world, "points_world")
         return np.floor(p * (1.0 / self.resolution)).astype(np.int64) - self.grid_key_min
 
     def voxel_to_world(self, index: np.ndarray) -> np.ndarray:
         """World centres (N, 3) [m] of voxel indices (N, 3)."""
-        idx = np.asarray(index, dtype=np.float64).reshape(-1, 3)
+        idx = points_array(index, "voxel index")
         return (idx + self.grid_key_min + 0.5) * self.resolution
 
     def in_grid(self, index: np.ndarray) -> np.ndarray:
@@ -279,11 +289,14 @@ class OccupancyMap:
     def set_voxels(self, index: np.ndarray, state: VoxelState) -> None:
         """Force voxels (N, 3) indices to a state: FREE / OCCUPIED get the clamping log-odds
         (as OctoMap's readBinary does), UNKNOWN resets them. Indices outside the grid raise."""
-        idx = np.asarray(index, dtype=np.int64).reshape(-1, 3)
+        raw = points_array(index, "voxel index")
+        if not np.all(np.isfinite(raw)) or np.any(raw != np.round(raw)):
+            raise CompassInputError("voxel indices must be finite whole numbers")
+        idx = raw.astype(np.int64)
         if not np.all(self.in_grid(idx)):
             bad = idx[~self.in_grid(idx)][0]
             raise CompassInputError(f"voxel index {bad.tolist()} is outside the grid of shape {self.shape}")
-        state = VoxelState(state)
+        state = _voxel_state(state)
         value = {VoxelState.UNKNOWN: 0.0, VoxelState.FREE: self._logs[2], VoxelState.OCCUPIED: self._logs[3]}[state]
         self.logodds[idx[:, 0], idx[:, 1], idx[:, 2]] = value
         self.state[idx[:, 0], idx[:, 1], idx[:, 2]] = int(state)
@@ -292,7 +305,7 @@ class OccupancyMap:
         """Force every voxel whose centre lies in the world box [box_min, box_max] [m] to a state."""
         sl = self._box_slices(box_min, box_max)
         value = {VoxelState.UNKNOWN: 0.0, VoxelState.FREE: self._logs[2], VoxelState.OCCUPIED: self._logs[3]}
-        self.logodds[sl] = value[VoxelState(state)]
+        self.logodds[sl] = value[_voxel_state(state)]
         self.state[sl] = int(state)
 
     def reset(self) -> None:
@@ -343,8 +356,8 @@ class OccupancyMap:
         return float(np.count_nonzero(sub)) / total
 
     def _check_box(self, box_min, box_max) -> tuple[np.ndarray, np.ndarray]:
-        lo = np.asarray(box_min, dtype=np.float64)
-        hi = np.asarray(box_max, dtype=np.float64)
+        lo = float_array(box_min, "box_min", "3 numbers [m]")
+        hi = float_array(box_max, "box_max", "3 numbers [m]")
         if lo.shape != (3,) or hi.shape != (3,) or not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi))):
             raise CompassInputError(f"box corners {box_min}, {box_max} must be finite 3-vectors [m]")
         if not np.all(hi >= lo):

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numba as nb
 import numpy as np
 
-from ..errors import CompassInputError
+from ..errors import CompassInputError, float_array, points_array
 from ..geometry import check_rigid
 
 
@@ -39,7 +39,7 @@ class PrimitiveSet:
         bR, bt, bh = [], [], []
         for i, (T, h) in enumerate(boxes):
             T = check_rigid(T, f"boxes[{i}] pose")
-            h = np.asarray(h, np.float64)
+            h = float_array(h, f"boxes[{i}] half extents", "3 numbers [m]")
             if h.shape != (3,) or not np.all(np.isfinite(h)) or np.any(h <= 0):
                 raise CompassInputError(f"boxes[{i}] half extents {h} must be 3 finite values > 0 [m]")
             bR.append(T[:3, :3])
@@ -47,7 +47,7 @@ class PrimitiveSet:
             bh.append(h)
         sc, sr = [], []
         for i, (c, r) in enumerate(spheres):
-            c = np.asarray(c, np.float64)
+            c = float_array(c, f"spheres[{i}] centre", "3 numbers [m]")
             if c.shape != (3,) or not np.all(np.isfinite(c)) or not (np.isfinite(r) and r > 0):
                 raise CompassInputError(f"spheres[{i}] needs a finite centre (3,) [m] and radius > 0 [m]")
             sc.append(c)
@@ -117,7 +117,7 @@ class PrimitiveSet:
 
     def distance(self, points: np.ndarray) -> np.ndarray:
         """Signed distance [m] of each world point (N,3) to the nearest primitive (inf if none)."""
-        P = np.ascontiguousarray(np.asarray(points, np.float64).reshape(-1, 3))
+        P = np.ascontiguousarray(points_array(points, "points"))
         out = np.empty(P.shape[0])
         for i in range(P.shape[0]):
             out[i] = primitives_distance(P[i], self.arrays(), -np.inf)
