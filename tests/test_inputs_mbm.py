@@ -265,3 +265,14 @@ def test_check_output_file(tmp_path):
     assert "is a folder" in _one_line_error(lambda: check_output_file(str(tmp_path)))
     assert "does not exist" in _one_line_error(lambda: check_output_file(str(tmp_path / "no" / "map.bt")))
     assert "not writable" in _one_line_error(lambda: check_output_file("/proc/map.bt"))
+
+
+def test_degrees_and_millimetres_are_refused(tmp_path):
+    request = copy.deepcopy(REQUEST)
+    request["start_state"]["joint_state"]["position"][:7] = np.degrees([0, -0.785, 0, -2.356, 0, 1.571, 0.785]).tolist()
+    with pytest.raises(CompassInputError, match=r"request0001.yaml: start state joint value -44.97.* \(degrees\?\)"):
+        load_problems(_write(str(tmp_path / "a"), yaml.safe_dump(SCENE), yaml.safe_dump(request)))
+    scene = copy.deepcopy(SCENE)
+    scene["world"]["collision_objects"][0]["primitives"][0]["dimensions"] = [300, 600, 20]
+    with pytest.raises(CompassInputError, match=r"scene0001.yaml: object 'shelf': box .*\(millimetres\?\)"):
+        load_problems(_write(str(tmp_path / "b"), yaml.safe_dump(scene), yaml.safe_dump(REQUEST)))

@@ -114,6 +114,12 @@ def _pose(pose, where: str) -> np.ndarray:
     return make_T(quat_to_R([w, x, y, z]), _vec(pose.get("position", [0, 0, 0]), "xyz", f"{where}.position"))
 
 
+#: Largest joint value [rad] read as such (the Panda's limits are within +-2.9 rad); larger
+#: values are taken for degrees and refused.
+MAX_JOINT_ABS = 2.0 * np.pi
+#: Largest primitive size [m] read as such; larger values are taken for millimetres.
+MAX_SIZE = 50.0
+
 #: Number of dimensions [m] of each MoveIt primitive type (`shape_msgs/SolidPrimitive`).
 _DIMS = {"box": 3, "cylinder": 2, "sphere": 1}
 _TYPE_CODES = {"1": "box", "2": "sphere", "3": "cylinder"}
@@ -127,7 +133,11 @@ def parse_scene(data, where: str) -> tuple[tuple, tuple, tuple, tuple]:
         raise CompassInputError(f"{where} is not a MoveIt planning scene (no mapping at top level)")
     if "world" not in data:
         raise CompassInputError(f"{where} has no 'world' key: not a MoveIt planning scene, or the file is cut off")
-    world = _mapping(data["world"], f"{where}: world", optional=True)
+    if data["world"] is None:
+        raise CompassInputError(f"{where}: 'world' is empty (file cut off?); a scene lists its collision_objects")
+    world = _mapping(data["world"], f"{where}: world")
+    if "collision_objects" in world and world["collision_objects"] is None:
+        raise CompassInputError(f"{where}: world.collision_objects is empty (file cut off?); give a list, [] for none")
     objects = _list(world.get("collision_objects"), f"{where}: world.collision_objects")
     boxes, cylinders, spheres = [], [], []
     ids: dict[str, list] = {"box": [], "cylinder": [], "sphere": []}
@@ -155,6 +165,9 @@ def parse_scene(data, where: str) -> tuple[tuple, tuple, tuple, tuple]:
                 raise CompassInputError(f"{at}: primitive type {kind!r} is not supported; use box, cylinder or sphere")
             raw = _list(prim.get("dimensions"), f"{at} primitives[{i}].dimensions", optional=False)
             dims = np.array([_number(v, f"{at} primitives[{i}].dimensions[{j}]", "m") for j, v in enumerate(raw)])
+            if np.any(dims > MAX_SIZE):
+                raise CompassInputError(f"{at}: {kind} dimensions {dims.tolist()} exceed {MAX_SIZE} m; MoveIt "
+                                        "sizes are metres (millimetres?)")
             if dims.shape != (_DIMS[kind],) or not np.all(dims > 0):
                 what = {"box": "3 sizes x, y, z", "cylinder": "[height, radius]", "sphere": "[radius]"}[kind]
                 raise CompassInputError(f"{at}: {kind} dimensions {dims.tolist()} are not allowed; a {kind} needs "
@@ -198,12 +211,20 @@ def parse_request(data, where: str) -> tuple[np.ndarray, np.ndarray]:
         for c, con in enumerate(_list(gc.get("joint_constraints"), f"{where}: goal_constraints[{g}].joint_constraints")):
             con = _mapping(con, f"{where}: goal_constraints[{g}].joint_constraints[{c}]")
             name = con.get("joint_name")
+            if not isinstance(name, str):
+                raise CompassInputError(f"{where}: goal_constraints[{g}].joint_constraints[{c}].joint_name "
+                                        f"{name!r:.40} is not allowed; use a joint name")
             jc[name] = (con.get("position"), f"{where}: goal_constraints[{g}].joint_constraints[{c}] ({name}) position")
         if all(j in jc for j in ARM_JOINTS):
             goals.append([_number(*jc[j], "rad") for j in ARM_JOINTS])
     if not goals:
         raise CompassInputError(f"{where}: no joint-space goal constraint covering {ARM_JOINTS[0]}..{ARM_JOINTS[-1]}")
-    return q_start, np.asarray(goals, dtype=np.float64).reshape(-1, N_ARM_JOINTS)
+    q_goals = np.asarray(goals, dtype=np.float64).reshape(-1, N_ARM_JOINTS)
+    for what, q in (("start state", q_start[None]), ("goal", q_goals)):
+        if np.any(np.abs(q) > MAX_JOINT_ABS):
+            raise CompassInputError(f"{where}: {what} joint value {q[np.abs(q) > MAX_JOINT_ABS][0]} exceeds "
+                                    f"{MAX_JOINT_ABS:.3f} rad (2 pi); MoveIt joint positions are radians (degrees?)")
+    return q_start, q_goals
 
 
 def parse_finger_width(data, where: str) -> float:

@@ -24,6 +24,8 @@ at `verify_resolution`. The numba kernels live in `rrt_kernels`, the OMPL backen
 """
 from __future__ import annotations
 
+import math
+
 import time
 from dataclasses import dataclass
 from enum import Enum
@@ -79,11 +81,11 @@ class PlannerConfig:
             raise CompassInputError(f"seed = {self.seed} is not allowed; use a whole number 0..2**63 - 1")
         if not isinstance(self.simplify, (bool, np.bool_)):
             raise CompassInputError(f"PlannerConfig.simplify = {self.simplify!r:.40} is not allowed; use True or False")
-        if not (np.isfinite(self.time_budget) and 0.0 < self.time_budget <= 3600.0):
+        if not (math.isfinite(float(self.time_budget)) and 0.0 < self.time_budget <= 3600.0):
             raise CompassInputError(f"time_budget = {self.time_budget} s is not allowed; use 0 < t <= 3600 s")
-        if not (np.isfinite(self.range) and 0.0 < self.range <= 20.0):
+        if not (math.isfinite(float(self.range)) and 0.0 < self.range <= 20.0):
             raise CompassInputError(f"range = {self.range} rad is not allowed; use 0 < range <= 20 rad")
-        if not (np.isfinite(self.edge_resolution) and 1e-4 <= self.edge_resolution <= 0.5):
+        if not (math.isfinite(float(self.edge_resolution)) and 1e-4 <= self.edge_resolution <= 0.5):
             raise CompassInputError(f"edge_resolution = {self.edge_resolution} rad is not allowed; use 1e-4..0.5 rad")
         if not (self.verify_resolution == 0.0 or 1e-4 <= self.verify_resolution <= self.edge_resolution):
             raise CompassInputError(

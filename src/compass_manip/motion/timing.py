@@ -9,6 +9,8 @@ jerk [rad/s^3] limits (robot/model.py), optionally scaled down.
 """
 from __future__ import annotations
 
+import math
+
 from dataclasses import dataclass
 
 import numpy as np
@@ -33,9 +35,9 @@ class TimingConfig:
             real_number(getattr(self, name), f"TimingConfig.{name}")
         for name in ("velocity_scale", "acceleration_scale", "jerk_scale"):
             v = getattr(self, name)
-            if not (np.isfinite(v) and 0.0 < v <= 1.0):
+            if not (math.isfinite(float(v)) and 0.0 < v <= 1.0):
                 raise CompassInputError(f"TimingConfig.{name} = {v} is not allowed; use 0 < scale <= 1")
-        if not (np.isfinite(self.dt) and 1e-4 <= self.dt <= 0.1):
+        if not (math.isfinite(float(self.dt)) and 1e-4 <= self.dt <= 0.1):
             raise CompassInputError(f"TimingConfig.dt = {self.dt} s is not allowed; use 1e-4..0.1 s")
 
 
