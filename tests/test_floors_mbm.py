@@ -42,5 +42,6 @@ def test_a_handful_of_mbm_problems_solved_without_penetration(problems):
 def test_all_mbm_problems_solved_without_penetration(problems):
     assert len(problems) == 400
     solved, penetrating = _solve_and_replay(problems)
+    print(f"\nMBM floor: {solved}/{len(problems)} solved, {penetrating} penetrating states")
     assert penetrating == 0
     assert solved >= 392  # README: 396 of 400

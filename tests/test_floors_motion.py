@@ -82,6 +82,7 @@ def test_a_handful_of_level_3_and_4_queries_replayed_without_contact():
 @pytest.mark.slow
 def test_the_benchmark_queries_replayed_without_contact():
     n, solved, bad_paths, bad_states = _run([(3, 0), (3, 1), (4, 0), (4, 1)], 30)
+    print(f"\nmotion floor: {solved}/{n} solved, {bad_paths} paths / {bad_states} states in contact")
     assert n == 120
     assert bad_paths == 0 and bad_states == 0
     assert solved >= 118  # README: 120 of 120
