@@ -2,7 +2,8 @@
 the ground-truth voxelisation of the scene (1 cm; a voxel is unsafe when a primitive or the
 floor touches it, as benchmarks/bench_motion.py) and replayed in the MuJoCo scene every
 0.005 rad with zero contacts (self-contacts included). `make test` runs 6 queries;
-`pytest -m slow` runs the benchmark's 120 (README: 120/120 with zero contacts)."""
+`pytest -m slow` runs 120 like the benchmark's (README: 120/120 with zero contacts, on
+the benchmark's uncertified scenes; measured here 119/120, zero contacts)."""
 import numpy as np
 import pytest
 from scipy import ndimage
@@ -85,4 +86,4 @@ def test_the_benchmark_queries_replayed_without_contact():
     print(f"\nmotion floor: {solved}/{n} solved, {bad_paths} paths / {bad_states} states in contact")
     assert n == 120
     assert bad_paths == 0 and bad_states == 0
-    assert solved >= 118  # README: 120 of 120
+    assert solved >= 118  # measured 119 of 120, zero contacts
