@@ -276,3 +276,20 @@ def test_degrees_and_millimetres_are_refused(tmp_path):
     scene["world"]["collision_objects"][0]["primitives"][0]["dimensions"] = [300, 600, 20]
     with pytest.raises(CompassInputError, match=r"scene0001.yaml: object 'shelf': box .*\(millimetres\?\)"):
         load_problems(_write(str(tmp_path / "b"), yaml.safe_dump(scene), yaml.safe_dump(REQUEST)))
+
+
+def test_oversized_member_of_an_archive_is_refused_before_reading(tmp_path):
+    import io
+    import tarfile
+
+    from compass_manip.bench import mbm_io
+
+    path = tmp_path / "bomb.tar.bz2"
+    with tarfile.open(path, "w:bz2") as tar:
+        data = b"#" * (mbm_io.MAX_FILE_BYTES + 1)  # compresses to a few hundred bytes
+        info = tarfile.TarInfo("problems/x_panda/scene0001.yaml")
+        info.size = len(data)
+        tar.addfile(info, io.BytesIO(data))
+    assert path.stat().st_size < 100_000
+    with pytest.raises(CompassInputError, match="too large"):
+        load_problems(str(path))

@@ -120,6 +120,10 @@ MAX_JOINT_ABS = 2.0 * np.pi
 #: Largest primitive size [m] read as such; larger values are taken for millimetres.
 MAX_SIZE = 50.0
 
+#: Largest scene or request file read [bytes] (the shipped ones are below 10 kB): bounds the
+#: memory a folder or a (possibly compressed-bomb) archive can take.
+MAX_FILE_BYTES = 16 << 20
+
 #: Number of dimensions [m] of each MoveIt primitive type (`shape_msgs/SolidPrimitive`).
 _DIMS = {"box": 3, "cylinder": 2, "sphere": 1}
 _TYPE_CODES = {"1": "box", "2": "sphere", "3": "cylinder"}
@@ -266,6 +270,9 @@ def _read_files(path: str) -> tuple[dict[str, str], str]:
             for n in names:
                 if _SCENE_RE.search(n) or _REQUEST_RE.search(n):
                     full = os.path.join(dirpath, n)
+                    if os.path.getsize(full) > MAX_FILE_BYTES:
+                        raise CompassInputError(f"{full}: {os.path.getsize(full)} bytes is too large for a "
+                                                f"MotionBenchMaker YAML file (at most {MAX_FILE_BYTES})")
                     try:
                         with open(full, "rb") as fh:
                             files[os.path.relpath(full, path)] = _decode(fh.read(), full)
@@ -280,6 +287,9 @@ def _read_files(path: str) -> tuple[dict[str, str], str]:
             for member in tar.getmembers():
                 base = os.path.basename(member.name)
                 if member.isfile() and (_SCENE_RE.search(base) or _REQUEST_RE.search(base)):
+                    if member.size > MAX_FILE_BYTES:
+                        raise CompassInputError(f"{path}: {member.name} holds {member.size} bytes, too large for a "
+                                                f"MotionBenchMaker YAML file (at most {MAX_FILE_BYTES})")
                     fh = tar.extractfile(member)
                     files[os.path.normpath(member.name)] = _decode(fh.read(), f"{path}: {member.name}")
     except CompassInputError:
