@@ -293,3 +293,34 @@ def test_oversized_member_of_an_archive_is_refused_before_reading(tmp_path):
     assert path.stat().st_size < 100_000
     with pytest.raises(CompassInputError, match="too large"):
         load_problems(str(path))
+
+
+@pytest.mark.parametrize("where", ["/proc", "file", "under-file", "/proc/new"])
+def test_out_helper_through_the_cli_one_line_exit_2_before_any_work(tmp_path, capsys, monkeypatch, where):
+    """A subcommand calling check_output_dir first, as `compass scenes` / `compass demo` do:
+    a bad --out is one error line with exit 2 and no work is done."""
+    import types
+
+    import compass_manip.cli as cli
+
+    work = []
+    probe = types.ModuleType("compass_manip.cli._out_probe")
+    probe.HELP = "test subcommand"
+    probe.add_arguments = lambda p: p.add_argument("--out", required=True)
+
+    def run(args):
+        check_output_dir(args.out)
+        work.append(args.out)  # the expensive part would start here
+        return 0
+
+    probe.run = run
+    monkeypatch.setitem(sys.modules, "compass_manip.cli._out_probe", probe)
+    monkeypatch.setitem(cli.SUBCOMMANDS, "outprobe", "_out_probe")
+    f = tmp_path / "file.txt"
+    f.write_text("x")
+    out = {"/proc": "/proc", "file": str(f), "under-file": str(f / "sub"), "/proc/new": "/proc/new"}[where]
+    code, stdout, err = _run_cli(["outprobe", "--out", out], capsys)
+    assert code == 2 and stdout == "" and work == []
+    assert err.count("\n") == 1 and err.startswith("compass outprobe: error: --out ") and "Traceback" not in err
+    code, _, _ = _run_cli(["outprobe", "--out", str(tmp_path / "new")], capsys)
+    assert code == 0 and work == [str(tmp_path / "new")]
