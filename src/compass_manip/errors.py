@@ -46,3 +46,34 @@ def points_array(value, name: str = "points"):
     if p.size % 3:
         raise CompassInputError(f"{name} must have shape (N, 3) [m], got {p.shape}")
     return p.reshape(-1, 3)
+
+
+def instance_of(value, cls: type, name: str, default=None):
+    """`value` if it is a `cls` (`default` when value is None and a default is given), or
+    CompassInputError naming what is expected."""
+    if value is None and default is not None:
+        return default
+    if not isinstance(value, cls):
+        raise CompassInputError(f"{name} must be a {cls.__name__}, got {type(value).__name__} {value!r:.40}")
+    return value
+
+
+def check_field_types(config) -> None:
+    """Raise CompassInputError for a dataclass field whose value is not of its default's
+    kind: bool fields need True/False, int fields a whole number, float fields a finite real
+    number (ints accepted). Fields without a bool/int/float default are not checked."""
+    import dataclasses
+
+    import numpy as np
+
+    name = type(config).__name__
+    for f in dataclasses.fields(config):
+        default, value = f.default, getattr(config, f.name)
+        if isinstance(default, bool):
+            if not isinstance(value, (bool, np.bool_)):
+                raise CompassInputError(f"{name}.{f.name} = {value!r:.40} is not allowed; use True or False")
+        elif isinstance(default, int):
+            if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
+                raise CompassInputError(f"{name}.{f.name} = {value!r:.40} is not allowed; use a whole number")
+        elif isinstance(default, float):
+            real_number(value, f"{name}.{f.name}")

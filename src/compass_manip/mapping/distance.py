@@ -27,7 +27,7 @@ from enum import IntEnum
 import numpy as np
 from numba import njit, prange
 
-from ..errors import CompassInputError, float_array, points_array
+from ..errors import CompassInputError, float_array, instance_of, points_array, check_field_types
 from .occupancy import OccupancyMap, VoxelState
 
 
@@ -40,6 +40,12 @@ class Interpolation(IntEnum):
 class DistanceFieldConfig:
     outside_is_unsafe: bool = True
     interpolation: Interpolation = Interpolation.TRILINEAR
+
+    def __post_init__(self) -> None:
+        check_field_types(self)
+        if self.interpolation not in tuple(Interpolation):
+            raise CompassInputError(f"DistanceFieldConfig.interpolation = {self.interpolation!r} is not allowed; use "
+                                    "Interpolation.NEAREST (0) or Interpolation.TRILINEAR (1)")
 
 
 def unsafe_mask(
@@ -85,7 +91,8 @@ class DistanceField:
         safe_voxels: np.ndarray | None = None,
         safe_spheres: tuple[np.ndarray, np.ndarray] | None = None,
     ) -> DistanceField:
-        config = config or DistanceFieldConfig()
+        instance_of(occ_map, OccupancyMap, "occ_map")
+        config = DistanceFieldConfig() if config is None else instance_of(config, DistanceFieldConfig, "config")
         unsafe = unsafe_mask(occ_map, safe_voxels, safe_spheres)
         if config.outside_is_unsafe:
             unsafe = np.pad(unsafe, 1, constant_values=True)

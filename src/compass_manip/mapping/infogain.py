@@ -19,7 +19,7 @@ import weakref
 import numba
 import numpy as np
 
-from ..errors import CompassInputError, real_number
+from ..errors import CompassInputError, instance_of, real_number
 from ..geometry import check_intrinsics, check_rigid
 from .occupancy import OccupancyMap
 from . import gain_kernels
@@ -76,6 +76,7 @@ def info_gain_batch(
     image_size: tuple[int, int] | None = None,
 ) -> np.ndarray:
     """Information gain (M,) int64 of M camera poses T_world_cams (M, 4, 4), in parallel."""
+    instance_of(occ_map, OccupancyMap, "occ_map")
     Ts = _check_poses(T_world_cams)
     max_range = real_number(max_range, "max_range", "a finite number > 0 [m]")
     if not max_range > 0.0:
