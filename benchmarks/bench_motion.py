@@ -6,7 +6,7 @@ a `DistanceGrid`; starts are the home pose or random valid configurations, goals
 configurations with the TCP inside the cabinet. A query counts as feasible when it is solved
 within the normal budget or within a 10x budget retry. Returned paths are replayed in the
 MuJoCo scene every 0.005 rad to count ground-truth contacts. MotionBenchMaker: every problem
-of the shared archive with our sphere model and planner.
+of data/mbm-panda.tar.bz2 with our sphere model and planner.
 
 Prints one JSON object per line (see COMMON.md). Run: `python benchmarks/bench_motion.py`.
 """
@@ -30,7 +30,8 @@ from compass_manip.motion.validity import DistanceGrid, ValidityChecker
 from compass_manip.robot.model import Q_HOME, Q_MAX, Q_MIN
 from compass_manip.robot.spheres import panda_sphere_model
 
-MBM_ARCHIVE = "/work/shared/external/mbm-panda.tar.bz2"
+#: shipped with the repository (data/README.md: MotionBenchMaker via KavrakiLab/vamp, Apache-2.0)
+MBM_ARCHIVE = os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir, "data", "mbm-panda.tar.bz2")
 GRID_LO, GRID_HI, GRID_RES = np.array([-0.7, -1.0, -0.1]), np.array([1.4, 1.0, 1.4]), 0.01
 SCENES = [(3, 0), (3, 1), (4, 0), (4, 1)]
 PAIRS_PER_SCENE = 30
@@ -152,8 +153,7 @@ def bench_scenes(sm) -> None:
 def bench_mbm() -> None:
     """As `compass mbm`: finger opening from each problem, fine-sphere refinement on."""
     if not os.path.isfile(MBM_ARCHIVE):
-        print(f"bench_motion: {MBM_ARCHIVE} missing, MBM skipped", file=sys.stderr)
-        return
+        raise SystemExit(f"bench_motion: {os.path.normpath(MBM_ARCHIVE)} is missing; it ships with the repository")
     problems = load_problems(MBM_ARCHIVE)
     cfg = PlannerConfig(time_budget=BUDGET_S)
     outcomes = solve_problems(problems, cfg, seed=0)

@@ -103,3 +103,79 @@ def test_ray_directions_and_bad_input():
         info_gain(occ, np.eye(4), K, 0.0)
     with pytest.raises(CompassInputError, match="rays"):
         info_gain(occ, np.eye(4), K, 1.0, rays=(0, 3))
+
+
+# ----------------------------------------------------------------------- exact brute-force oracle
+def _oracle_gain(state, k0, res, origin, dirs_world, max_range):
+    """Distinct unknown voxels crossed by the rays, found without any DDA: the segment's
+    crossings of every grid plane are sorted and the voxel of each piece's midpoint is taken.
+    A ray stops at the first occupied voxel (not counted), where it leaves the grid, and
+    before the voxel of its end point at max_range (OctoMap's convention)."""
+    shape = np.array(state.shape)
+    g0 = origin / res - k0
+    seen = set()
+    for d in dirs_world:
+        g1 = (origin + max_range * d) / res - k0
+        ts = [0.0, 1.0]
+        for a in range(3):
+            lo, hi = sorted((g0[a], g1[a]))
+            planes = np.arange(np.floor(lo) + 1, np.ceil(hi))
+            if g1[a] != g0[a]:
+                ts.extend((planes - g0[a]) / (g1[a] - g0[a]))
+        ts = np.unique(np.clip(ts, 0.0, 1.0))
+        end = tuple(np.floor(g1).astype(int))
+        for t0, t1 in zip(ts[:-1], ts[1:]):
+            v = tuple(np.floor(g0 + 0.5 * (t0 + t1) * (g1 - g0)).astype(int))
+            if v == end or not all(0 <= v[i] < shape[i] for i in range(3)) or state[v] == VoxelState.OCCUPIED:
+                break
+            if state[v] == VoxelState.UNKNOWN:
+                seen.add(v)
+    return len(seen)
+
+
+def _random_small_map(seed):
+    occ = OccupancyMap(MapConfig(box_min=(0.0, 0.0, 0.0), box_max=(1.2, 1.0, 0.8), resolution=0.1))
+    rng = np.random.default_rng(seed)
+    s = rng.choice([VoxelState.UNKNOWN, VoxelState.FREE, VoxelState.OCCUPIED], size=occ.shape, p=[0.6, 0.3, 0.1])
+    for state in (VoxelState.FREE, VoxelState.OCCUPIED):
+        occ.set_voxels(np.argwhere(s == state), state)
+    return occ, rng
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_gain_equals_a_brute_force_count_exactly(seed):
+    """No tolerance: one voxel more or less per view fails (e.g. a DDA step too many)."""
+    occ, rng = _random_small_map(seed)
+    K_small = np.array([[8.0, 0.0, 5.5], [0.0, 8.0, 4.5], [0.0, 0.0, 1.0]])  # 12 x 10 px, wide view
+    dirs_cam = camera_ray_directions(K_small, (7, 5))
+    poses = []
+    for _ in range(20):  # >= 16 views: the batch uses the view-grid kernel; single calls the stamp kernel
+        eye = rng.uniform([0.15, 0.15, 0.15], [1.05, 0.85, 0.65])
+        poses.append(look_at(eye, eye + rng.normal(size=3)))
+    poses = np.array(poses)
+    max_range = 0.73
+    expected = []
+    for T in poses:
+        occ_eye = occ.state[tuple(occ.world_to_voxel(T[:3, 3])[0])]
+        expected.append(_oracle_gain(occ.state, occ.grid_key_min, occ.resolution, T[:3, 3],
+                                     dirs_cam @ T[:3, :3].T, max_range) if occ_eye != VoxelState.OCCUPIED else 0)
+    expected = np.array(expected)
+    assert expected.sum() > 200 and len(set(expected.tolist())) > 5  # a varied, non-trivial case
+    singles = np.array([info_gain(occ, T, K_small, max_range, (7, 5)) for T in poses])
+    np.testing.assert_array_equal(singles, expected)
+    np.testing.assert_array_equal(info_gain_batch(occ, poses, K_small, max_range, (7, 5)), expected)
+    np.testing.assert_array_equal(info_gain_batch(occ, poses[:5], K_small, max_range, (7, 5)), expected[:5])
+
+
+def test_one_axis_ray_counts_the_voxels_before_its_end():
+    """A single ray along +x from a voxel centre: exactly the voxels up to (not including)
+    the one holding the end point, stopping before the first occupied voxel."""
+    occ = OccupancyMap(MapConfig(box_min=(0.0, 0.0, 0.0), box_max=(2.0, 0.3, 0.3), resolution=0.1))
+    K1 = np.array([[10.0, 0.0, 0.0], [0.0, 10.0, 0.0], [0.0, 0.0, 1.0]])
+    T = look_at([0.05, 0.15, 0.15], [1.0, 0.15, 0.15])
+    assert info_gain(occ, T, K1, 0.5, (1, 1)) == 5  # voxels 0..4; the end point lies in voxel 5
+    assert info_gain(occ, T, K1, 0.9, (1, 1)) == 9  # end point at x = 0.95 m: voxel 9
+    assert info_gain(occ, T, K1, 0.95, (1, 1)) == 10  # end point on the boundary of voxel 10
+    occ.set_voxels([[7, 1, 1]], VoxelState.OCCUPIED)
+    occ.set_voxels([[2, 1, 1]], VoxelState.FREE)
+    assert info_gain(occ, T, K1, 1.5, (1, 1)) == 6  # 0..6 without the free voxel 2

@@ -20,11 +20,22 @@ from compass_manip.bench.mbm import (
 )
 from compass_manip.motion.planner import PlannerConfig
 
-ARCHIVE = "/work/shared/external/mbm-panda.tar.bz2"
+from conftest import MBM_ARCHIVE
+
+ARCHIVE = str(MBM_ARCHIVE)  # shipped in data/ (data/README.md); a missing file fails every test here
 FAMILIES = ("bookshelf_small", "box", "cage", "table_pick")
 N_PER_FAMILY = 2
 
-pytestmark = pytest.mark.skipif(not os.path.isfile(ARCHIVE), reason="shared MBM archive not present")
+
+def test_archive_ships_with_the_repository():
+    assert os.path.isfile(ARCHIVE), f"{ARCHIVE} is missing"
+    with tarfile.open(ARCHIVE, "r:bz2") as tar:
+        names = [m.name for m in tar.getmembers() if m.isfile()]
+    assert len(names) == 800  # 4 families x 100 scene + request pairs
+
+
+#: solved of the 8-problem subset without refinement (measured: 8 of 8 on 2026-11-22)
+MIN_SOLVED_OF_SUBSET = 7
 
 
 def _extract(root, numbers, family_filter=None) -> str:
@@ -153,6 +164,7 @@ def test_solve_subset_paths_valid(subset):
     assert [s.family for s in stats] == list(FAMILIES)
     for s in stats:
         assert s.problems == N_PER_FAMILY and s.solved + s.rejected == N_PER_FAMILY
+    assert sum(o.solved for o in outcomes) >= MIN_SOLVED_OF_SUBSET
 
 
 def test_out_of_limit_goal_is_rejected_not_raised(subset):
@@ -170,15 +182,23 @@ def test_out_of_limit_goal_is_rejected_not_raised(subset):
 
 
 def test_path_is_valid_detects_a_collision(subset):
+    """bookshelf 0001: the straight line from the start to the first goal goes through the
+    shelf (MuJoCo finds up to 4 cm of penetration on it); both ends are free."""
     from compass_manip.bench.mbm import problem_validity
+    from compass_manip.motion.timing import densify
     from compass_manip.robot.spheres import panda_sphere_model
 
-    p = load_problems(subset)[0]  # bookshelf: a straight line through the shelf is blocked
-    v = problem_validity(p, panda_sphere_model())
-    far = p.q_start.copy()
-    far[0] = -2.5
+    p = load_problems(subset)[0]
+    assert (p.family, p.name) == ("bookshelf_small", "0001")
+    v = problem_validity(p, panda_sphere_model(finger_width=p.finger_width))
+    m, d, obstacles = _mujoco_scene(p)
+    line = np.stack([p.q_start, p.q_goals[0]])
+    true = np.array([_true_clearance(m, d, obstacles, q, p.finger_width) for q in densify(line, 0.01)])
+    assert true[0] > 0 and true[-1] > 0 and true.min() < -0.02  # the oracle: ends free, the line blocked
+    assert v.is_valid(line[0]) and v.is_valid(line[1])
+    assert not path_is_valid(line, v, 0.005)
+    assert not path_is_valid(np.stack([p.q_start, p.q_start, p.q_goals[0], p.q_goals[0]]), v, 0.005)
     assert path_is_valid(np.stack([p.q_start, p.q_start]), v, 0.005)
-    assert path_is_valid(np.stack([p.q_start, far]), v, 0.005) == v.edge_valid(p.q_start, far, 0.005)
 
 
 def test_cli_json_shape(subset, capsys):

@@ -171,3 +171,33 @@ def test_every_returned_segment_was_checked_as_is(spheres):
         r = plan(Q_LEFT, Q_RIGHT, v, cfg, np.random.default_rng(seed))
         assert r.success
         assert all(v.edge_valid(a, b, 0.1) for a, b in zip(r.path[:-1], r.path[1:]))
+
+
+Q_REACH = np.array([0.0, 0.5, 0.0, -1.2, 0.0, 1.7, 0.785])  # arm stretched out: TCP 0.70 m from the base axis
+Q_REACH_LEFT, Q_REACH_RIGHT = Q_REACH + [1.0, 0, 0, 0, 0, 0, 0], Q_REACH - [1.0, 0, 0, 0, 0, 0, 0]
+
+
+def _thin_wall_between_samples(spheres) -> ValidityChecker:
+    """A 2 cm radial plate at joint-1 angle 0.25 rad across the TCP's sweep from
+    Q_REACH_LEFT to Q_REACH_RIGHT: a 0.5 rad edge check samples joint 1 at 1.0, 0.5, 0.0, ...
+    (the TCP 17 cm apart) and steps over it."""
+    from compass_manip.geometry import rot_z
+
+    q_wall = Q_REACH.copy()
+    q_wall[0] = 0.25
+    wall = (make_T(rot_z(0.25), _tcp(q_wall)), np.array([0.1, 0.01, 0.1]))
+    return ValidityChecker(spheres, obstacles=PrimitiveSet.from_lists(boxes=[wall]))
+
+
+@pytest.mark.parametrize("backend", ["numba", "ompl"])
+def test_final_recheck_catches_a_straight_line_that_tunnels(spheres, backend):
+    """Fails if `plan` skips its final re-check at verify_resolution."""
+    v = _thin_wall_between_samples(spheres)
+    a, b = Q_REACH_LEFT, Q_REACH_RIGHT
+    assert v.is_valid(a) and v.is_valid(b)
+    assert v.edge_valid(a, b, 0.5)  # the search step steps over the wall ...
+    assert not v.edge_valid(a, b, FINE)  # ... which the fine step finds
+    cfg = PlannerConfig(time_budget=10.0, edge_resolution=0.5, verify_resolution=FINE, backend=backend)
+    r = plan(a, b, v, cfg, np.random.default_rng(0))
+    _assert_valid_path(r, v, a, b)
+    assert len(r.path) > 2

@@ -40,7 +40,10 @@ def is_rigid(T: np.ndarray, tol: float = 1e-6) -> bool:
 
 def check_rigid(T: np.ndarray, name: str = "T") -> np.ndarray:
     """Return T as float64 or raise CompassInputError naming the problem."""
-    T = np.asarray(T, dtype=np.float64)
+    try:
+        T = np.asarray(T, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise CompassInputError(f"{name} must be a 4x4 rigid transform of numbers, got {T!r:.80}") from exc
     if T.shape != (4, 4):
         raise CompassInputError(f"{name} must be a 4x4 rigid transform, got shape {T.shape}")
     if not np.all(np.isfinite(T)):
@@ -118,3 +121,43 @@ def look_at(eye: np.ndarray, target: np.ndarray, up: np.ndarray = (0.0, 0.0, 1.0
     x /= np.linalg.norm(x)
     y = np.cross(z, x)
     return make_T(np.column_stack([x, y, z]), eye)
+
+
+#: Largest distance of the principal point from the image centre, as a fraction of the
+#: image's width / height, for a depth image to count as taken with intrinsics K.
+PRINCIPAL_POINT_TOLERANCE = 0.1
+
+
+def check_intrinsics(K: np.ndarray, image_shape: tuple[int, int] | None = None, name: str = "K") -> np.ndarray:
+    """K as float64 (3, 3), or CompassInputError naming what is wrong.
+
+    A pinhole matrix [[fx, 0, cx], [0, fy, cy], [0, 0, 1]] [px] (OpenCV, no skew) with
+    1 <= fx, fy <= 1e6 px. With image_shape (H, W) the principal point must lie within
+    `PRINCIPAL_POINT_TOLERANCE` of the image centre ((W - 1) / 2, (H - 1) / 2) along each
+    axis: an image of another size (or transposed) does not belong to K.
+    """
+    try:
+        K = np.asarray(K, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise CompassInputError(f"{name} must be a 3x3 array of numbers [px], got {K!r:.80}") from exc
+    if K.shape != (3, 3) or not np.all(np.isfinite(K)):
+        raise CompassInputError(f"{name} must be a finite 3x3 pinhole matrix [px], got shape {K.shape}: "
+                                f"{np.array2string(K, precision=4)}")
+    fx, fy = K[0, 0], K[1, 1]
+    if not (1.0 <= fx <= 1e6 and 1.0 <= fy <= 1e6):
+        raise CompassInputError(f"{name} focal lengths fx {fx}, fy {fy} px are not allowed; use 1..1e6 px")
+    if K[0, 1] != 0.0 or K[1, 0] != 0.0 or K[2, 0] != 0.0 or K[2, 1] != 0.0 or K[2, 2] != 1.0:
+        raise CompassInputError(
+            f"{name} = {np.array2string(K, precision=4)} is not a pinhole matrix [[fx, 0, cx], [0, fy, cy], "
+            "[0, 0, 1]] (no skew; transposed?)"
+        )
+    if image_shape is not None:
+        H, W = image_shape
+        for c, n, axis in ((K[0, 2], W, "cx"), (K[1, 2], H, "cy")):
+            if abs(c - 0.5 * (n - 1)) > PRINCIPAL_POINT_TOLERANCE * n + 0.5:
+                raise CompassInputError(
+                    f"{name} principal point {axis} = {c} px does not fit an image of {W}x{H} px (W x H; centre "
+                    f"{0.5 * (W - 1)}, {0.5 * (H - 1)}); the depth image and K come from different cameras "
+                    "or the image is transposed"
+                )
+    return K

@@ -7,7 +7,7 @@ planned and validated with the fine model. Problems come from `bench.mbm_io.load
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from enum import Enum
 
 import numpy as np
@@ -43,7 +43,8 @@ class MbmOutcome:
     passed the fine re-check), path_invalid (a path was returned but failed the re-check),
     plan_ms planning wall time [ms] (NaN when rejected), waypoints in the path (0 if none),
     refined: the planner's sphere model rejected the start or every goal and the fine model
-    (which accepted them) was used for this problem."""
+    (which accepted them) was used for this problem; path: the returned waypoints (n,7) [rad]
+    or None (kept so a benchmark or test can replay exactly what was counted)."""
 
     family: str
     name: str
@@ -53,6 +54,7 @@ class MbmOutcome:
     plan_ms: float
     waypoints: int
     refined: bool = False
+    path: np.ndarray | None = field(default=None, compare=False, repr=False)
 
 
 @dataclass(frozen=True)
@@ -115,7 +117,8 @@ def solve_problem(problem: MbmProblem, sphere_model, planner_config, rng: np.ran
           and bool(np.any(np.all(result.path[-1] == goals, axis=1)))
           and path_is_valid(result.path, validity, validate_resolution))
     return MbmOutcome(problem.family, problem.name, None, ok, result.success and not ok,
-                      1e3 * result.plan_time_s, 0 if result.path is None else len(result.path), refined)
+                      1e3 * result.plan_time_s, 0 if result.path is None else len(result.path), refined,
+                      result.path)
 
 
 def solve_problems(problems: list[MbmProblem], planner_config, seed: int = 0, validate_resolution: float = 0.005,

@@ -16,6 +16,7 @@ from __future__ import annotations
 import os
 import re
 import tarfile
+import zlib
 from dataclasses import dataclass
 
 import numpy as np
@@ -58,110 +59,187 @@ def _yaml_load(text: str, where: str):
     loader = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
     try:
         return yaml.load(text, Loader=loader)
-    except yaml.YAMLError as exc:
-        raise CompassInputError(f"{where} is not valid YAML: {str(exc).splitlines()[0]}") from exc
+    except (yaml.YAMLError, ValueError, TypeError, RecursionError) as exc:
+        first = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
+        raise CompassInputError(f"{where} is not valid YAML: {first}") from exc
+
+
+def _mapping(value, where: str, optional: bool = False) -> dict:
+    """value if it is a mapping ({} for a missing optional one), else CompassInputError."""
+    if value is None and optional:
+        return {}
+    if not isinstance(value, dict):
+        raise CompassInputError(f"{where} must be a mapping, got {type(value).__name__} {value!r:.60}")
+    return value
+
+
+def _list(value, where: str, optional: bool = True) -> list:
+    """value if it is a list ([] for a missing optional one), else CompassInputError."""
+    if value is None and optional:
+        return []
+    if not isinstance(value, list):
+        raise CompassInputError(f"{where} must be a list, got {type(value).__name__} {value!r:.60}")
+    return value
+
+
+def _number(value, where: str, unit: str) -> float:
+    """A finite YAML number (int or float, not bool or string) as float."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value):
+        raise CompassInputError(f"{where} = {value!r:.60} is not allowed; use a finite number [{unit}]")
+    return float(value)
 
 
 def _vec(value, keys: str, where: str) -> np.ndarray:
     """A position or quaternion given as a list or as a mapping {x:, y:, z:(, w:)}."""
     if isinstance(value, dict):
-        value = [value.get(k) for k in keys]
-    try:
-        v = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise CompassInputError(f"{where}: cannot read {value!r} as numbers") from exc
-    if v.shape != (len(keys),) or not np.all(np.isfinite(v)):
-        raise CompassInputError(f"{where}: expected {len(keys)} finite numbers ({keys}), got {value!r}")
-    return v
+        missing = [k for k in keys if k not in value]
+        if missing:
+            raise CompassInputError(f"{where}: keys {missing} missing; expected {', '.join(keys)}")
+        value = [value[k] for k in keys]
+    if not isinstance(value, list) or len(value) != len(keys):
+        raise CompassInputError(f"{where}: expected {len(keys)} finite numbers ({keys}), got {value!r:.80}")
+    return np.array([_number(v, f"{where}.{k}", "m" if keys == "xyz" else "-") for v, k in zip(value, keys)])
 
 
-def _pose(pose: dict | None, where: str) -> np.ndarray:
+def _pose(pose, where: str) -> np.ndarray:
+    pose = _mapping(pose, where, optional=True)
     if not pose:
         return np.eye(4)
-    xyzw = _vec(pose.get("orientation", [0, 0, 0, 1]), "xyzw", f"{where} orientation")
+    xyzw = _vec(pose.get("orientation", [0, 0, 0, 1]), "xyzw", f"{where}.orientation")
     n = np.linalg.norm(xyzw)
-    if n < 1e-9:
-        raise CompassInputError(f"{where}: zero quaternion")
+    if not 0.5 < n < 2.0:
+        raise CompassInputError(f"{where}.orientation {xyzw.tolist()} is not a unit quaternion (norm {n:.3g}); "
+                                "use x, y, z, w with norm 1")
     x, y, z, w = xyzw / n
-    return make_T(quat_to_R([w, x, y, z]), _vec(pose.get("position", [0, 0, 0]), "xyz", f"{where} position"))
+    return make_T(quat_to_R([w, x, y, z]), _vec(pose.get("position", [0, 0, 0]), "xyz", f"{where}.position"))
 
 
-def parse_scene(data: dict, where: str) -> tuple[tuple, tuple, tuple, tuple]:
+#: Largest joint value [rad] read as such (the Panda's limits are within +-2.9 rad); larger
+#: values are taken for degrees and refused.
+MAX_JOINT_ABS = 2.0 * np.pi
+#: Largest primitive size [m] read as such; larger values are taken for millimetres.
+MAX_SIZE = 50.0
+
+#: Largest scene or request file read [bytes] (the shipped ones are below 10 kB): bounds the
+#: memory a folder or a (possibly compressed-bomb) archive can take.
+MAX_FILE_BYTES = 16 << 20
+
+#: Number of dimensions [m] of each MoveIt primitive type (`shape_msgs/SolidPrimitive`).
+_DIMS = {"box": 3, "cylinder": 2, "sphere": 1}
+_TYPE_CODES = {"1": "box", "2": "sphere", "3": "cylinder"}
+
+
+def parse_scene(data, where: str) -> tuple[tuple, tuple, tuple, tuple]:
     """(boxes, cylinders, spheres, obstacle ids) of a MoveIt planning scene mapping; see
-    MbmProblem."""
+    MbmProblem. A scene must have a `world` key (MoveIt writes it last, so a file cut off
+    early has none); every object must have primitives, with positive finite dimensions."""
     if not isinstance(data, dict):
         raise CompassInputError(f"{where} is not a MoveIt planning scene (no mapping at top level)")
-    objects = ((data.get("world") or {}).get("collision_objects")) or []
+    if "world" not in data:
+        raise CompassInputError(f"{where} has no 'world' key: not a MoveIt planning scene, or the file is cut off")
+    if data["world"] is None:
+        raise CompassInputError(f"{where}: 'world' is empty (file cut off?); a scene lists its collision_objects")
+    world = _mapping(data["world"], f"{where}: world")
+    if "collision_objects" in world and world["collision_objects"] is None:
+        raise CompassInputError(f"{where}: world.collision_objects is empty (file cut off?); give a list, [] for none")
+    objects = _list(world.get("collision_objects"), f"{where}: world.collision_objects")
     boxes, cylinders, spheres = [], [], []
     ids: dict[str, list] = {"box": [], "cylinder": [], "sphere": []}
-    for obj in objects:
-        oid = obj.get("id", "?")
+    for k, obj in enumerate(objects):
+        obj = _mapping(obj, f"{where}: world.collision_objects[{k}]")
+        oid = str(obj.get("id", f"#{k}"))
+        at = f"{where}: object {oid!r}"
         if obj.get("operation") in (1, 2, "remove", "REMOVE"):
             continue
         if obj.get("meshes") or obj.get("planes"):
-            raise CompassInputError(f"{where}: object {oid!r} has meshes or planes; only box, cylinder, sphere are supported")
-        T_world_obj = _pose(obj.get("pose"), f"{where} object {oid!r} pose")
-        prims = obj.get("primitives") or []
-        poses = obj.get("primitive_poses") or []
+            raise CompassInputError(f"{at} has meshes or planes; only box, cylinder, sphere are supported")
+        T_world_obj = _pose(obj.get("pose"), f"{at} pose")
+        prims = _list(obj.get("primitives"), f"{at} primitives")
+        poses = _list(obj.get("primitive_poses"), f"{at} primitive_poses")
+        if not prims:
+            raise CompassInputError(f"{at} has no primitives (file cut off?); give box, cylinder or sphere primitives")
         if len(prims) != len(poses):
-            raise CompassInputError(f"{where}: object {oid!r} has {len(prims)} primitives but {len(poses)} poses")
-        for prim, pose in zip(prims, poses):
-            T = T_world_obj @ _pose(pose, f"{where} object {oid!r}")
+            raise CompassInputError(f"{at} has {len(prims)} primitives but {len(poses)} primitive_poses")
+        for i, (prim, pose) in enumerate(zip(prims, poses)):
+            prim = _mapping(prim, f"{at} primitives[{i}]")
+            T = T_world_obj @ _pose(pose, f"{at} primitive_poses[{i}]")
             kind = str(prim.get("type", "")).lower()
-            dims = np.asarray(prim.get("dimensions", []), dtype=np.float64)
-            if kind in ("box", "1"):
-                if dims.shape != (3,):
-                    raise CompassInputError(f"{where}: box {oid!r} needs 3 dimensions [m], got {dims.tolist()}")
+            kind = _TYPE_CODES.get(kind, kind)
+            if kind not in _DIMS:
+                raise CompassInputError(f"{at}: primitive type {kind!r} is not supported; use box, cylinder or sphere")
+            raw = _list(prim.get("dimensions"), f"{at} primitives[{i}].dimensions", optional=False)
+            dims = np.array([_number(v, f"{at} primitives[{i}].dimensions[{j}]", "m") for j, v in enumerate(raw)])
+            if np.any(dims > MAX_SIZE):
+                raise CompassInputError(f"{at}: {kind} dimensions {dims.tolist()} exceed {MAX_SIZE} m; MoveIt "
+                                        "sizes are metres (millimetres?)")
+            if dims.shape != (_DIMS[kind],) or not np.all(dims > 0):
+                what = {"box": "3 sizes x, y, z", "cylinder": "[height, radius]", "sphere": "[radius]"}[kind]
+                raise CompassInputError(f"{at}: {kind} dimensions {dims.tolist()} are not allowed; a {kind} needs "
+                                        f"{what} > 0 [m]")
+            if kind == "box":
                 boxes.append((T, 0.5 * dims))
-                ids["box"].append(str(oid))
-            elif kind in ("cylinder", "3"):
-                if dims.shape != (2,):
-                    raise CompassInputError(f"{where}: cylinder {oid!r} needs [height, radius] [m], got {dims.tolist()}")
+            elif kind == "cylinder":
                 cylinders.append((T, float(dims[1]), 0.5 * float(dims[0])))
-                ids["cylinder"].append(str(oid))
-            elif kind in ("sphere", "2"):
-                if dims.shape != (1,):
-                    raise CompassInputError(f"{where}: sphere {oid!r} needs [radius] [m], got {dims.tolist()}")
-                spheres.append((T[:3, 3].copy(), float(dims[0])))
-                ids["sphere"].append(str(oid))
             else:
-                raise CompassInputError(f"{where}: primitive type {kind!r} of {oid!r} is not supported; use box, cylinder or sphere")
+                spheres.append((T[:3, 3].copy(), float(dims[0])))
+            ids[kind].append(oid)
     return tuple(boxes), tuple(cylinders), tuple(spheres), tuple(ids["box"] + ids["cylinder"] + ids["sphere"])
 
 
-def parse_request(data: dict, where: str) -> tuple[np.ndarray, np.ndarray]:
-    """(q_start (7,), q_goals (k,7)) [rad] of a MoveIt motion plan request mapping."""
+def _start_joints(data: dict, where: str) -> dict:
+    """{joint name: position} of a request's start state; names and positions checked."""
+    start_state = _mapping(data.get("start_state"), f"{where}: start_state")
+    js = _mapping(start_state.get("joint_state"), f"{where}: start_state.joint_state")
+    names = _list(js.get("name"), f"{where}: start_state.joint_state.name", optional=False)
+    pos = _list(js.get("position"), f"{where}: start_state.joint_state.position", optional=False)
+    if len(names) != len(pos):
+        raise CompassInputError(f"{where}: start_state.joint_state has {len(names)} names but {len(pos)} positions")
+    return {str(n): (v, f"{where}: start_state.joint_state.position[{i}] ({n})") for i, (n, v) in enumerate(zip(names, pos))}
+
+
+def parse_request(data, where: str) -> tuple[np.ndarray, np.ndarray]:
+    """(q_start (7,), q_goals (k,7)) [rad] of a MoveIt motion plan request mapping. Joint
+    values must be finite numbers (NaN or inf raise; finite values outside the limits are
+    kept and reported by the solver as outside_limits)."""
     if not isinstance(data, dict):
         raise CompassInputError(f"{where} is not a MoveIt motion plan request (no mapping at top level)")
-    js = ((data.get("start_state") or {}).get("joint_state")) or {}
-    names, pos = list(js.get("name") or []), list(js.get("position") or [])
-    start = dict(zip(names, pos))
+    start = _start_joints(data, where)
     missing = [j for j in ARM_JOINTS if j not in start]
     if missing:
         raise CompassInputError(f"{where}: start state lacks joints {missing}")
-    q_start = np.array([start[j] for j in ARM_JOINTS], dtype=np.float64)
+    q_start = np.array([_number(*start[j], "rad") for j in ARM_JOINTS])
     goals = []
-    for gc in data.get("goal_constraints") or []:
-        jc = {c.get("joint_name"): c.get("position") for c in gc.get("joint_constraints") or []}
+    for g, gc in enumerate(_list(data.get("goal_constraints"), f"{where}: goal_constraints")):
+        gc = _mapping(gc, f"{where}: goal_constraints[{g}]")
+        jc = {}
+        for c, con in enumerate(_list(gc.get("joint_constraints"), f"{where}: goal_constraints[{g}].joint_constraints")):
+            con = _mapping(con, f"{where}: goal_constraints[{g}].joint_constraints[{c}]")
+            name = con.get("joint_name")
+            if not isinstance(name, str):
+                raise CompassInputError(f"{where}: goal_constraints[{g}].joint_constraints[{c}].joint_name "
+                                        f"{name!r:.40} is not allowed; use a joint name")
+            jc[name] = (con.get("position"), f"{where}: goal_constraints[{g}].joint_constraints[{c}] ({name}) position")
         if all(j in jc for j in ARM_JOINTS):
-            goals.append([jc[j] for j in ARM_JOINTS])
+            goals.append([_number(*jc[j], "rad") for j in ARM_JOINTS])
     if not goals:
         raise CompassInputError(f"{where}: no joint-space goal constraint covering {ARM_JOINTS[0]}..{ARM_JOINTS[-1]}")
-    return q_start, np.asarray(goals, dtype=np.float64).reshape(-1, N_ARM_JOINTS)
+    q_goals = np.asarray(goals, dtype=np.float64).reshape(-1, N_ARM_JOINTS)
+    for what, q in (("start state", q_start[None]), ("goal", q_goals)):
+        if np.any(np.abs(q) > MAX_JOINT_ABS):
+            raise CompassInputError(f"{where}: {what} joint value {q[np.abs(q) > MAX_JOINT_ABS][0]} exceeds "
+                                    f"{MAX_JOINT_ABS:.3f} rad (2 pi); MoveIt joint positions are radians (degrees?)")
+    return q_start, q_goals
 
 
-def parse_finger_width(data: dict, where: str) -> float:
+def parse_finger_width(data, where: str) -> float:
     """Finger opening [m] of a request's start state: the sum of its two finger joints
     (`*finger_joint1`, `*finger_joint2`); GRIPPER_MAX_WIDTH when it names no finger joint."""
-    js = ((data.get("start_state") or {}).get("joint_state")) or {}
-    start = dict(zip(list(js.get("name") or []), list(js.get("position") or [])))
-    fingers = [v for k in ("finger_joint1", "finger_joint2") for n, v in start.items() if str(n).endswith(k)]
+    start = _start_joints(_mapping(data, where), where)
+    fingers = [_number(v, at, "m") for k in ("finger_joint1", "finger_joint2")
+               for n, (v, at) in start.items() if n.endswith(k)]
     if not fingers:
         return GRIPPER_MAX_WIDTH
-    try:
-        width = float(sum(float(v) for v in fingers)) * (2.0 / len(fingers))
-    except (TypeError, ValueError) as exc:
-        raise CompassInputError(f"{where}: finger joint positions {fingers!r} are not numbers") from exc
+    width = float(sum(fingers)) * (2.0 / len(fingers))
     if not (np.isfinite(width) and 0.0 <= width <= MAX_FINGER_WIDTH):
         raise CompassInputError(f"{where}: finger opening {width} m (sum of the finger joints) is not allowed; "
                                 f"use 0..{MAX_FINGER_WIDTH} m")
@@ -171,6 +249,14 @@ def parse_finger_width(data: dict, where: str) -> float:
 def _family_name(folder: str, root_name: str) -> str:
     name = os.path.basename(folder.rstrip("/")) or root_name
     return name[: -len("_panda")] if name.endswith("_panda") else name
+
+
+def _decode(raw: bytes, where: str) -> str:
+    try:
+        return raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise CompassInputError(f"{where} is not UTF-8 text (byte {exc.start}); MotionBenchMaker YAML files are "
+                                "UTF-8") from exc
 
 
 def _read_files(path: str) -> tuple[dict[str, str], str]:
@@ -184,8 +270,14 @@ def _read_files(path: str) -> tuple[dict[str, str], str]:
             for n in names:
                 if _SCENE_RE.search(n) or _REQUEST_RE.search(n):
                     full = os.path.join(dirpath, n)
-                    with open(full, encoding="utf-8") as fh:
-                        files[os.path.relpath(full, path)] = fh.read()
+                    if os.path.getsize(full) > MAX_FILE_BYTES:
+                        raise CompassInputError(f"{full}: {os.path.getsize(full)} bytes is too large for a "
+                                                f"MotionBenchMaker YAML file (at most {MAX_FILE_BYTES})")
+                    try:
+                        with open(full, "rb") as fh:
+                            files[os.path.relpath(full, path)] = _decode(fh.read(), full)
+                    except OSError as exc:
+                        raise CompassInputError(f"{full}: cannot be read ({exc.strerror or exc})") from exc
         return files, root_name
     if not path.endswith((".tar.bz2", ".tbz2", ".tar.gz", ".tgz", ".tar")):
         raise CompassInputError(f"{path}: not a directory or .tar.bz2 archive of MotionBenchMaker problems")
@@ -195,9 +287,14 @@ def _read_files(path: str) -> tuple[dict[str, str], str]:
             for member in tar.getmembers():
                 base = os.path.basename(member.name)
                 if member.isfile() and (_SCENE_RE.search(base) or _REQUEST_RE.search(base)):
+                    if member.size > MAX_FILE_BYTES:
+                        raise CompassInputError(f"{path}: {member.name} holds {member.size} bytes, too large for a "
+                                                f"MotionBenchMaker YAML file (at most {MAX_FILE_BYTES})")
                     fh = tar.extractfile(member)
-                    files[os.path.normpath(member.name)] = fh.read().decode("utf-8")
-    except (tarfile.TarError, OSError, EOFError, UnicodeDecodeError) as exc:
+                    files[os.path.normpath(member.name)] = _decode(fh.read(), f"{path}: {member.name}")
+    except CompassInputError:
+        raise
+    except (tarfile.TarError, OSError, EOFError, ValueError, zlib.error) as exc:
         first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise CompassInputError(f"{path}: not a readable .tar.bz2 archive ({first.rstrip(':')})") from exc
     return files, root_name

@@ -10,7 +10,8 @@ HELP = "solve MotionBenchMaker problems (folder or .tar.bz2) and print per-famil
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("path", help="folder or .tar.bz2 of sceneNNNN.yaml + requestNNNN.yaml pairs")
+    parser.add_argument("path", help="folder or .tar.bz2 of sceneNNNN.yaml + requestNNNN.yaml pairs "
+                                     "(the repository ships data/mbm-panda.tar.bz2)")
     parser.add_argument("--json", action="store_true", help="print one JSON object per family")
     parser.add_argument("--time-budget", type=float, default=1.0, metavar="S",
                         help="planning time budget per problem [s] (default 1.0)")
@@ -50,8 +51,14 @@ def run(args) -> int:
     from ..motion.planner import PlannerConfig
     from ..robot.spheres import panda_sphere_model
 
-    if not 0.0 < args.validate_resolution <= 0.5:
-        raise CompassInputError(f"--validate-resolution {args.validate_resolution} rad is not allowed; use 0 < r <= 0.5")
+    if not 1e-4 <= args.validate_resolution <= 0.5:
+        raise CompassInputError(f"--validate-resolution {args.validate_resolution} rad is not allowed; use 1e-4..0.5 rad")
+    if not 0.0 < args.time_budget <= 3600.0:
+        raise CompassInputError(f"--time-budget {args.time_budget} s is not allowed; use 0 < t <= 3600 s")
+    if args.resolution is not None and not 1e-4 <= args.resolution <= 0.5:
+        raise CompassInputError(f"--resolution {args.resolution} rad is not allowed; use 1e-4..0.5 rad")
+    if not 0 <= args.seed < 2**63:
+        raise CompassInputError(f"--seed {args.seed} is not allowed; use a whole number 0..2**63 - 1")
     edge = PlannerConfig().edge_resolution if args.resolution is None else args.resolution
     config = PlannerConfig(time_budget=args.time_budget, seed=args.seed, backend=args.backend,
                            edge_resolution=edge, verify_resolution=min(args.validate_resolution, edge))

@@ -27,7 +27,7 @@ from enum import IntEnum
 import numpy as np
 from numba import njit, prange
 
-from ..errors import CompassInputError
+from ..errors import CompassInputError, float_array, instance_of, points_array, check_field_types
 from .occupancy import OccupancyMap, VoxelState
 
 
@@ -40,6 +40,12 @@ class Interpolation(IntEnum):
 class DistanceFieldConfig:
     outside_is_unsafe: bool = True
     interpolation: Interpolation = Interpolation.TRILINEAR
+
+    def __post_init__(self) -> None:
+        check_field_types(self)
+        if self.interpolation not in tuple(Interpolation):
+            raise CompassInputError(f"DistanceFieldConfig.interpolation = {self.interpolation!r} is not allowed; use "
+                                    "Interpolation.NEAREST (0) or Interpolation.TRILINEAR (1)")
 
 
 def unsafe_mask(
@@ -59,8 +65,8 @@ def unsafe_mask(
             raise CompassInputError(f"safe_voxels has shape {sv.shape}; the grid's shape {unsafe.shape} is required")
         unsafe &= ~sv
     if safe_spheres is not None:
-        c = np.asarray(safe_spheres[0], dtype=np.float64).reshape(-1, 3)
-        r = np.asarray(safe_spheres[1], dtype=np.float64).reshape(-1)
+        c = float_array(safe_spheres[0], "safe_spheres centres", "(S, 3) numbers [m]").reshape(-1, 3)
+        r = float_array(safe_spheres[1], "safe_spheres radii", "(S,) numbers [m]").reshape(-1)
         if len(c) != len(r) or not (np.all(np.isfinite(c)) and np.all(np.isfinite(r)) and np.all(r >= 0)):
             raise CompassInputError("safe_spheres must be finite centres (S, 3) [m] and radii (S,) >= 0 [m]")
         _clear_spheres(unsafe, occ_map.grid_min, occ_map.resolution, c, r)
@@ -85,7 +91,8 @@ class DistanceField:
         safe_voxels: np.ndarray | None = None,
         safe_spheres: tuple[np.ndarray, np.ndarray] | None = None,
     ) -> DistanceField:
-        config = config or DistanceFieldConfig()
+        instance_of(occ_map, OccupancyMap, "occ_map")
+        config = DistanceFieldConfig() if config is None else instance_of(config, DistanceFieldConfig, "config")
         unsafe = unsafe_mask(occ_map, safe_voxels, safe_spheres)
         if config.outside_is_unsafe:
             unsafe = np.pad(unsafe, 1, constant_values=True)
@@ -100,7 +107,7 @@ class DistanceField:
     def distance_at(self, points_world: np.ndarray) -> np.ndarray:
         """Distances (N,) [m] at world points (N, 3) [m] (interpolation and outside rule
         from the config)."""
-        p = np.ascontiguousarray(np.asarray(points_world, dtype=np.float64).reshape(-1, 3))
+        p = np.ascontiguousarray(points_array(points_world, "points_world"))
         return _lookup_many(self.distances, self.grid_min, 1.0 / self.resolution, p,
                             self.config.outside_is_unsafe, int(self.config.interpolation))
 

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit, prange
 
-from ..errors import CompassInputError
+from ..errors import CompassInputError, instance_of, check_field_types
 from .occupancy import OccupancyMap
 from .raycast import FREE, UNKNOWN
 
@@ -31,6 +31,7 @@ class FrontierConfig:
     connectivity: int = 26
 
     def __post_init__(self) -> None:
+        check_field_types(self)
         if not (isinstance(self.min_cluster_size, int) and self.min_cluster_size >= 1):
             raise CompassInputError(f"min_cluster_size {self.min_cluster_size} is not allowed; use an int >= 1")
         if self.connectivity not in (6, 18, 26):
@@ -58,7 +59,8 @@ def frontier_mask(state: np.ndarray) -> np.ndarray:
 
 def find_frontiers(occ_map: OccupancyMap, config: FrontierConfig | None = None) -> tuple[FrontierCluster, ...]:
     """Frontier clusters of the map, largest first (ties: by centroid x, y, z)."""
-    config = config or FrontierConfig()
+    instance_of(occ_map, OccupancyMap, "occ_map")
+    config = FrontierConfig() if config is None else instance_of(config, FrontierConfig, "config")
     idx, dirs = _frontier_voxels(occ_map.state)
     if len(idx) == 0:
         return ()

@@ -19,8 +19,8 @@ import weakref
 import numba
 import numpy as np
 
-from ..errors import CompassInputError
-from ..geometry import check_rigid
+from ..errors import CompassInputError, instance_of, real_number
+from ..geometry import check_intrinsics, check_rigid
 from .occupancy import OccupancyMap
 from . import gain_kernels
 
@@ -35,13 +35,16 @@ def camera_ray_directions(
     centres at integer coordinates, OpenCV). image_size = (W, H) [px]; by default
     (2 cx + 1, 2 cy + 1), i.e. a centred principal point.
     """
-    K = _check_K(K)
-    nu, nv = int(rays[0]), int(rays[1])
-    if nu < 1 or nv < 1:
-        raise CompassInputError(f"rays {rays} is not allowed; use at least (1, 1) rays")
-    W, H = image_size if image_size is not None else (2.0 * K[0, 2] + 1.0, 2.0 * K[1, 2] + 1.0)
-    if not (W > 0 and H > 0):
-        raise CompassInputError(f"image_size {(W, H)} px is not allowed; width and height must be > 0")
+    nu, nv = _int_pair(rays, "rays", 1, 10_000)
+    if image_size is not None:
+        W, H = _int_pair(image_size, "image_size", 1, 100_000)
+        K = _check_K(K, (W, H))
+    else:
+        K = _check_K(K)
+        W, H = 2.0 * K[0, 2] + 1.0, 2.0 * K[1, 2] + 1.0
+        if not (W > 0 and H > 0):
+            raise CompassInputError(f"K principal point ({K[0, 2]}, {K[1, 2]}) px gives no image; "
+                                    "give image_size (W, H) or a principal point >= 0")
     u = (np.arange(nu) + 0.5) * (W / nu) - 0.5
     v = (np.arange(nv) + 0.5) * (H / nv) - 0.5
     uu, vv = np.meshgrid(u, v)
@@ -73,9 +76,11 @@ def info_gain_batch(
     image_size: tuple[int, int] | None = None,
 ) -> np.ndarray:
     """Information gain (M,) int64 of M camera poses T_world_cams (M, 4, 4), in parallel."""
+    instance_of(occ_map, OccupancyMap, "occ_map")
     Ts = _check_poses(T_world_cams)
-    if not (math.isfinite(max_range) and max_range > 0.0):
-        raise CompassInputError(f"max_range {max_range} m is not allowed; use a finite value > 0")
+    max_range = real_number(max_range, "max_range", "a finite number > 0 [m]")
+    if not max_range > 0.0:
+        raise CompassInputError(f"max_range {max_range} m is not allowed; use a finite value > 0 [m]")
     dirs = camera_ray_directions(K, rays, image_size)
     n_workers = numba.get_num_threads()
     origins = np.ascontiguousarray(Ts[:, :3, 3])
@@ -93,13 +98,8 @@ def info_gain_batch(
     return kernel(occ_map.state, stamps, last, origins, R, dirs, float(max_range), k0, res)
 
 
-def _check_K(K: np.ndarray) -> np.ndarray:
-    K = np.asarray(K, dtype=np.float64)
-    if K.shape != (3, 3) or not np.all(np.isfinite(K)) or K[0, 0] <= 0 or K[1, 1] <= 0:
-        raise CompassInputError(
-            f"K must be a finite 3x3 pinhole matrix with fx, fy > 0, got {np.array2string(K, precision=3)}"
-        )
-    return K
+def _check_K(K: np.ndarray, image_size=None) -> np.ndarray:
+    return check_intrinsics(K, None if image_size is None else (image_size[1], image_size[0]))
 
 
 def _check_poses(T_world_cams: np.ndarray) -> np.ndarray:
@@ -121,6 +121,21 @@ def _check_poses(T_world_cams: np.ndarray) -> np.ndarray:
         check_rigid(Ts[i], f"T_world_cams[{i}]")
         raise CompassInputError(f"T_world_cams[{i}] is not a rigid transform")
     return Ts
+
+
+def _int_pair(value, name: str, low: int, high: int) -> tuple[int, int]:
+    """(a, b) of two whole numbers in low..high, or CompassInputError."""
+    try:
+        a, b = value
+    except (TypeError, ValueError) as exc:
+        raise CompassInputError(f"{name} {value!r:.60} is not allowed; use two whole numbers {low}..{high}") from exc
+    out = []
+    for v in (a, b):
+        if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer, float, np.floating)) \
+                or not math.isfinite(float(v)) or float(v) != int(v) or not low <= int(v) <= high:
+            raise CompassInputError(f"{name} {value!r:.60} is not allowed; use two whole numbers {low}..{high}")
+        out.append(int(v))
+    return out[0], out[1]
 
 
 #: Batches of at least this many views use the view-grid kernels (see gain_kernels).

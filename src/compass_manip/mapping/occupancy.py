@@ -21,8 +21,8 @@ from typing import Callable
 import numba
 import numpy as np
 
-from ..errors import CompassInputError
-from ..geometry import check_rigid
+from ..errors import CompassInputError, real_number, float_array, points_array
+from ..geometry import check_intrinsics, check_rigid
 from . import raycast
 from .integration import integrate_scan
 
@@ -72,8 +72,10 @@ class MapConfig:
     ray_grouping: int = 1
 
     def __post_init__(self) -> None:
-        lo = np.asarray(self.box_min, dtype=float)
-        hi = np.asarray(self.box_max, dtype=float)
+        lo = float_array(self.box_min, "MapConfig.box_min", "3 finite numbers [m]")
+        hi = float_array(self.box_max, "MapConfig.box_max", "3 finite numbers [m]")
+        for name in ("resolution", "prob_hit", "prob_miss", "clamp_min", "clamp_max", "occupancy_threshold"):
+            real_number(getattr(self, name), f"MapConfig.{name}")
         if lo.shape != (3,) or hi.shape != (3,) or not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi))):
             raise CompassInputError(f"box_min {self.box_min} / box_max {self.box_max} must be finite 3-vectors [m]")
         if not np.all(hi > lo):
@@ -89,13 +91,42 @@ class MapConfig:
                 f"clamp_min {self.clamp_min}, occupancy_threshold {self.occupancy_threshold}, clamp_max "
                 f"{self.clamp_max} not allowed; need 0 < clamp_min < threshold < clamp_max < 1"
             )
-        if not (isinstance(self.pixel_stride, int) and 1 <= self.pixel_stride <= 16):
+        if isinstance(self.pixel_stride, bool) or not (isinstance(self.pixel_stride, int) and 1 <= self.pixel_stride <= 16):
             raise CompassInputError(f"pixel_stride {self.pixel_stride} is not allowed; use an int 1..16")
-        if self.ray_grouping not in (0, 1, 2):
+        if isinstance(self.ray_grouping, bool) or not isinstance(self.ray_grouping, int) or self.ray_grouping not in (0, 1, 2):
             raise CompassInputError(f"ray_grouping {self.ray_grouping} is not allowed; use 0, 1 or 2")
         n = np.ceil(hi / self.resolution - 1e-9) - np.floor(lo / self.resolution + 1e-9)
         if np.prod(n) > 2e8:
             raise CompassInputError(f"map of {n.astype(int)} voxels is too large; at most 2e8 voxels")
+
+
+def check_depth(depth: np.ndarray) -> np.ndarray:
+    """A depth image (H, W) of z-depths [m] as given, or CompassInputError: it must be a
+    non-empty 2-D floating-point array (metres). Integer images are refused, since sensors
+    and PNG files store millimetres as integers; bool images are masks, not depth."""
+    d = np.asarray(depth)
+    if d.ndim != 2 or d.size == 0:
+        raise CompassInputError(f"depth must be a non-empty (H, W) image [m], got shape {d.shape}")
+    if not np.issubdtype(d.dtype, np.floating):
+        hint = (" (integer depth is usually millimetres: pass depth.astype(np.float32) / 1000, with 0 for "
+                "no return)" if np.issubdtype(d.dtype, np.integer) else "")
+        raise CompassInputError(f"depth has dtype {d.dtype}; floating-point metres are required{hint}")
+    return d
+
+
+def _voxel_state(state) -> VoxelState:
+    try:
+        return VoxelState(state)
+    except (ValueError, TypeError) as exc:
+        raise CompassInputError(f"voxel state {state!r:.40} is not allowed; use a VoxelState "
+                                "(UNKNOWN 0, FREE 1, OCCUPIED 2)") from exc
+
+
+def _float_array(value, name: str) -> np.ndarray:
+    try:
+        return np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise CompassInputError(f"{name} must be numbers [m], got {value!r:.60}") from exc
 
 
 @dataclass(frozen=True)
@@ -156,12 +187,12 @@ class OccupancyMap:
 
     def world_to_voxel(self, points_world: np.ndarray) -> np.ndarray:
         """Voxel indices (N, 3) int64 of world points (N, 3) [m]; may lie outside the grid."""
-        p = np.asarray(points_world, dtype=np.float64).reshape(-1, 3)
+        p = points_array(points_world, "points_world")
         return np.floor(p * (1.0 / self.resolution)).astype(np.int64) - self.grid_key_min
 
     def voxel_to_world(self, index: np.ndarray) -> np.ndarray:
         """World centres (N, 3) [m] of voxel indices (N, 3)."""
-        idx = np.asarray(index, dtype=np.float64).reshape(-1, 3)
+        idx = points_array(index, "voxel index")
         return (idx + self.grid_key_min + 0.5) * self.resolution
 
     def in_grid(self, index: np.ndarray) -> np.ndarray:
@@ -186,6 +217,9 @@ class OccupancyMap:
         """Integrate a depth image (H, W) of z-depths [m] taken from camera pose T_world_cam.
 
         K: 3x3 intrinsics [px], pixel centres at integer coordinates (OpenCV).
+        depth must be floating point in metres (float16/32/64): integer depth (e.g. a
+        sensor's millimetres) or a bool mask raises CompassInputError saying how to convert.
+        K must be a pinhole matrix without skew whose principal point fits the image.
         NaN, 0 and negative depths are ignored. +inf (no return) and points farther than
         max_range [m] (Euclidean, along the ray, as OctoMap's maxrange) clear free space
         up to max_range with no hit. point_filter (robot self-filter) drops the pixels
@@ -193,13 +227,12 @@ class OccupancyMap:
         non-rigid pose raises CompassInputError and leaves the map unchanged.
         """
         T = check_rigid(T_world_cam, "T_world_cam")
-        depth = np.asarray(depth)
-        if depth.ndim != 2 or depth.size == 0:
-            raise CompassInputError(f"depth must be a non-empty (H, W) image [m], got shape {depth.shape}")
-        K = np.asarray(K, dtype=np.float64)
-        if K.shape != (3, 3) or not np.all(np.isfinite(K)) or K[0, 0] <= 0 or K[1, 1] <= 0:
-            raise CompassInputError(f"K must be a finite 3x3 pinhole matrix with fx, fy > 0, got {K.tolist()}")
-        self._check_range(max_range)
+        max_range = self._check_range(max_range)
+        depth = check_depth(depth)
+        K = check_intrinsics(K, depth.shape)
+        if point_filter is not None and not callable(point_filter):
+            raise CompassInputError(f"point_filter {point_filter!r:.60} is not callable; give a function "
+                                    "points (N, 3) -> bool (N,) or None")
         points, kind = raycast.backproject(
             np.ascontiguousarray(depth, dtype=np.float32), K[0, 0], K[1, 1], K[0, 2], K[1, 2],
             np.ascontiguousarray(T[:3, :3]), np.ascontiguousarray(T[:3, 3]), self.config.pixel_stride,
@@ -215,14 +248,14 @@ class OccupancyMap:
     ) -> IntegrationStats:
         """Integrate measured world points (N, 3) [m] seen from origin_world (3,) [m]:
         OctoMap's `insertPointCloud(points, origin, maxrange)` on this grid."""
-        p = np.asarray(points_world, dtype=np.float64)
-        o = np.asarray(origin_world, dtype=np.float64)
+        p = _float_array(points_world, "points_world")
+        o = _float_array(origin_world, "origin_world")
         if p.ndim != 2 or p.shape[1] != 3 or not np.all(np.isfinite(p)):
             raise CompassInputError(f"points_world must be finite (N, 3) [m], got shape {p.shape}")
         if o.shape != (3,) or not np.all(np.isfinite(o)):
             raise CompassInputError(f"origin_world must be a finite 3-vector [m], got {o}")
-        if max_range != math.inf:
-            self._check_range(max_range)
+        if not (isinstance(max_range, (int, float, np.floating, np.integer)) and max_range == math.inf):
+            max_range = self._check_range(max_range)
         kind = np.full(len(p), raycast.KIND_POINT, np.uint8)
         return self._integrate(np.ascontiguousarray(p), kind, o, max_range, point_filter)
 
@@ -247,18 +280,23 @@ class OccupancyMap:
         return IntegrationStats(n_rays, n_filtered, int(n_free), int(n_hit), int(n_traced))
 
     @staticmethod
-    def _check_range(max_range: float) -> None:
-        if not (isinstance(max_range, (int, float)) and math.isfinite(max_range) and max_range > 0):
-            raise CompassInputError(f"max_range {max_range} m is not allowed; use a finite value > 0")
+    def _check_range(max_range) -> float:
+        v = real_number(max_range, "max_range", "a finite number > 0 [m]")
+        if not v > 0.0:
+            raise CompassInputError(f"max_range {max_range} m is not allowed; use a finite value > 0 [m]")
+        return v
 
     def set_voxels(self, index: np.ndarray, state: VoxelState) -> None:
         """Force voxels (N, 3) indices to a state: FREE / OCCUPIED get the clamping log-odds
         (as OctoMap's readBinary does), UNKNOWN resets them. Indices outside the grid raise."""
-        idx = np.asarray(index, dtype=np.int64).reshape(-1, 3)
+        raw = points_array(index, "voxel index")
+        if not np.all(np.isfinite(raw)) or np.any(raw != np.round(raw)):
+            raise CompassInputError("voxel indices must be finite whole numbers")
+        idx = raw.astype(np.int64)
         if not np.all(self.in_grid(idx)):
             bad = idx[~self.in_grid(idx)][0]
             raise CompassInputError(f"voxel index {bad.tolist()} is outside the grid of shape {self.shape}")
-        state = VoxelState(state)
+        state = _voxel_state(state)
         value = {VoxelState.UNKNOWN: 0.0, VoxelState.FREE: self._logs[2], VoxelState.OCCUPIED: self._logs[3]}[state]
         self.logodds[idx[:, 0], idx[:, 1], idx[:, 2]] = value
         self.state[idx[:, 0], idx[:, 1], idx[:, 2]] = int(state)
@@ -267,7 +305,7 @@ class OccupancyMap:
         """Force every voxel whose centre lies in the world box [box_min, box_max] [m] to a state."""
         sl = self._box_slices(box_min, box_max)
         value = {VoxelState.UNKNOWN: 0.0, VoxelState.FREE: self._logs[2], VoxelState.OCCUPIED: self._logs[3]}
-        self.logodds[sl] = value[VoxelState(state)]
+        self.logodds[sl] = value[_voxel_state(state)]
         self.state[sl] = int(state)
 
     def reset(self) -> None:
@@ -318,8 +356,8 @@ class OccupancyMap:
         return float(np.count_nonzero(sub)) / total
 
     def _check_box(self, box_min, box_max) -> tuple[np.ndarray, np.ndarray]:
-        lo = np.asarray(box_min, dtype=np.float64)
-        hi = np.asarray(box_max, dtype=np.float64)
+        lo = float_array(box_min, "box_min", "3 numbers [m]")
+        hi = float_array(box_max, "box_max", "3 numbers [m]")
         if lo.shape != (3,) or hi.shape != (3,) or not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi))):
             raise CompassInputError(f"box corners {box_min}, {box_max} must be finite 3-vectors [m]")
         if not np.all(hi >= lo):

@@ -13,7 +13,7 @@ import math
 import numpy as np
 from numba import njit
 
-from ..errors import CompassInputError
+from ..errors import CompassInputError, float_array, points_array, real_number
 
 
 class SphereBodyFilter:
@@ -26,16 +26,20 @@ class SphereBodyFilter:
 
     def __init__(self, centers_world: np.ndarray, radii: np.ndarray, margin: float = 0.0,
                  cell_size: float = 0.04) -> None:
-        c = np.ascontiguousarray(np.asarray(centers_world, dtype=np.float64).reshape(-1, 3))
-        r = np.ascontiguousarray(np.asarray(radii, dtype=np.float64).reshape(-1))
+        c = np.ascontiguousarray(points_array(centers_world, "centers_world"))
+        r = np.ascontiguousarray(float_array(radii, "radii", "(S,) numbers [m]").reshape(-1))
         if len(c) != len(r):
             raise CompassInputError(f"{len(c)} sphere centres but {len(r)} radii; counts must match")
         if not (np.all(np.isfinite(c)) and np.all(np.isfinite(r)) and np.all(r >= 0.0)):
             raise CompassInputError("sphere centres must be finite [m] and radii finite and >= 0 [m]")
-        if not (math.isfinite(margin) and margin >= 0.0):
-            raise CompassInputError(f"margin {margin} m is not allowed; use a finite value >= 0")
-        if not (math.isfinite(cell_size) and cell_size >= 0.005):
-            raise CompassInputError(f"cell_size {cell_size} m is not allowed; use a finite value >= 0.005")
+        margin = real_number(margin, "margin", "0..1 m")
+        cell_size = real_number(cell_size, "cell_size", "0.005..1 m")
+        if not 0.0 <= margin <= 1.0:
+            raise CompassInputError(f"margin {margin} m is not allowed; use 0..1 m")
+        if not 0.005 <= cell_size <= 1.0:
+            raise CompassInputError(f"cell_size {cell_size} m is not allowed; use 0.005..1 m")
+        if len(r) and np.any(r > 10.0):
+            raise CompassInputError(f"sphere radius {r.max()} m is not allowed; use 0..10 m")
         self.centers_world = c
         self.radii = r
         self.margin = float(margin)
@@ -68,7 +72,7 @@ class SphereBodyFilter:
             self._start = np.zeros(1, np.int64)
 
     def __call__(self, points_world: np.ndarray) -> np.ndarray:
-        p = np.asarray(points_world, dtype=np.float64)
+        p = float_array(points_world, "points_world", "(N, 3) numbers [m]")
         if p.ndim != 2 or p.shape[1] != 3:
             raise CompassInputError(f"points_world must have shape (N, 3), got {p.shape}")
         return _inside_spheres(np.ascontiguousarray(p), self.centers_world, self._r2, self._lo, 1.0 / self._cell,

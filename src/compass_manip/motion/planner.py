@@ -24,6 +24,8 @@ at `verify_resolution`. The numba kernels live in `rrt_kernels`, the OMPL backen
 """
 from __future__ import annotations
 
+import math
+
 import time
 from dataclasses import dataclass
 from enum import Enum
@@ -31,7 +33,7 @@ from enum import Enum
 import numba as nb
 import numpy as np
 
-from ..errors import CompassInputError
+from ..errors import CompassInputError, real_number
 from ..robot.model import N_ARM_JOINTS, Q_MAX, Q_MIN, check_q
 from .ompl_backend import plan_ompl
 from .rrt_kernels import (MAX_NEW_PER_ITER, STATUS_CONNECTED, STATUS_FULL, edge_ok, rrt_connect_kernel,
@@ -69,11 +71,21 @@ class PlannerConfig:
     backend: str = "numba"
 
     def __post_init__(self) -> None:
-        if not (np.isfinite(self.time_budget) and 0.0 < self.time_budget <= 3600.0):
+        for name in ("time_budget", "range", "edge_resolution", "verify_resolution"):
+            real_number(getattr(self, name), f"PlannerConfig.{name}")
+        for name in ("simplify_rounds", "seed"):
+            v = getattr(self, name)
+            if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer)):
+                raise CompassInputError(f"PlannerConfig.{name} = {v!r:.40} is not allowed; use a whole number >= 0")
+        if not 0 <= self.seed < 2**63:
+            raise CompassInputError(f"seed = {self.seed} is not allowed; use a whole number 0..2**63 - 1")
+        if not isinstance(self.simplify, (bool, np.bool_)):
+            raise CompassInputError(f"PlannerConfig.simplify = {self.simplify!r:.40} is not allowed; use True or False")
+        if not (math.isfinite(float(self.time_budget)) and 0.0 < self.time_budget <= 3600.0):
             raise CompassInputError(f"time_budget = {self.time_budget} s is not allowed; use 0 < t <= 3600 s")
-        if not (np.isfinite(self.range) and 0.0 < self.range <= 20.0):
+        if not (math.isfinite(float(self.range)) and 0.0 < self.range <= 20.0):
             raise CompassInputError(f"range = {self.range} rad is not allowed; use 0 < range <= 20 rad")
-        if not (np.isfinite(self.edge_resolution) and 1e-4 <= self.edge_resolution <= 0.5):
+        if not (math.isfinite(float(self.edge_resolution)) and 1e-4 <= self.edge_resolution <= 0.5):
             raise CompassInputError(f"edge_resolution = {self.edge_resolution} rad is not allowed; use 1e-4..0.5 rad")
         if not (self.verify_resolution == 0.0 or 1e-4 <= self.verify_resolution <= self.edge_resolution):
             raise CompassInputError(
@@ -81,7 +93,7 @@ class PlannerConfig:
             )
         if self.simplify_rounds < 0:
             raise CompassInputError(f"simplify_rounds = {self.simplify_rounds} is not allowed; use >= 0")
-        if self.backend not in BACKENDS:
+        if not isinstance(self.backend, str) or self.backend not in BACKENDS:
             raise CompassInputError(f"backend {self.backend!r} is not allowed; use one of {BACKENDS}")
 
 
@@ -123,7 +135,11 @@ def plan(q_start, q_goals, validity, config: PlannerConfig | None = None,
     goals give a failed `PlanResult` with its reason; NaN or out-of-limit input raises
     CompassInputError.
     """
-    config = config or PlannerConfig()
+    config = PlannerConfig() if config is None else config
+    if not isinstance(config, PlannerConfig):
+        raise CompassInputError(f"config {config!r:.60} is not allowed; give a PlannerConfig or None")
+    if rng is not None and not isinstance(rng, np.random.Generator):
+        raise CompassInputError(f"rng {rng!r:.60} is not allowed; give a numpy.random.Generator or None")
     args = validity.kernel_args() if hasattr(validity, "kernel_args") else None
     if args is not None:
         _compile_kernels(args)  # once per process, outside the time budget

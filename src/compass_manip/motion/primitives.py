@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numba as nb
 import numpy as np
 
-from ..errors import CompassInputError
+from ..errors import CompassInputError, float_array, points_array, real_number
 from ..geometry import check_rigid
 
 
@@ -35,11 +35,23 @@ class PrimitiveSet:
     @classmethod
     def from_lists(cls, boxes=(), spheres=(), cylinders=()) -> "PrimitiveSet":
         """boxes: [(T_world_box 4x4, half_extents (3,))]; spheres: [(center (3,), radius)];
-        cylinders: [(T_world_cyl 4x4, radius, half_length)]."""
+        cylinders: [(T_world_cyl 4x4, radius, half_length)]. Anything else raises
+        CompassInputError naming the list and the item."""
+        try:
+            return cls._from_lists(boxes, spheres, cylinders)
+        except CompassInputError:
+            raise
+        except (TypeError, ValueError) as exc:  # not lists of tuples of numbers
+            raise CompassInputError(
+                "primitives must be lists boxes=[(T 4x4, half extents (3,))], spheres=[(centre (3,), radius)], "
+                f"cylinders=[(T 4x4, radius, half_length)] [m]; got an item that is not ({exc})") from exc
+
+    @classmethod
+    def _from_lists(cls, boxes, spheres, cylinders) -> "PrimitiveSet":
         bR, bt, bh = [], [], []
         for i, (T, h) in enumerate(boxes):
             T = check_rigid(T, f"boxes[{i}] pose")
-            h = np.asarray(h, np.float64)
+            h = float_array(h, f"boxes[{i}] half extents", "3 numbers [m]")
             if h.shape != (3,) or not np.all(np.isfinite(h)) or np.any(h <= 0):
                 raise CompassInputError(f"boxes[{i}] half extents {h} must be 3 finite values > 0 [m]")
             bR.append(T[:3, :3])
@@ -47,15 +59,18 @@ class PrimitiveSet:
             bh.append(h)
         sc, sr = [], []
         for i, (c, r) in enumerate(spheres):
-            c = np.asarray(c, np.float64)
-            if c.shape != (3,) or not np.all(np.isfinite(c)) or not (np.isfinite(r) and r > 0):
+            c = float_array(c, f"spheres[{i}] centre", "3 numbers [m]")
+            r = real_number(r, f"spheres[{i}] radius", "a finite radius > 0 [m]")
+            if c.shape != (3,) or not np.all(np.isfinite(c)) or not r > 0:
                 raise CompassInputError(f"spheres[{i}] needs a finite centre (3,) [m] and radius > 0 [m]")
             sc.append(c)
             sr.append(float(r))
         cR, ct, cr, ch = [], [], [], []
         for i, (T, r, h) in enumerate(cylinders):
             T = check_rigid(T, f"cylinders[{i}] pose")
-            if not (np.isfinite(r) and r > 0 and np.isfinite(h) and h > 0):
+            r = real_number(r, f"cylinders[{i}] radius", "a finite radius > 0 [m]")
+            h = real_number(h, f"cylinders[{i}] half_length", "a finite half length > 0 [m]")
+            if not (r > 0 and h > 0):
                 raise CompassInputError(f"cylinders[{i}] radius {r} and half_length {h} must be > 0 [m]")
             cR.append(T[:3, :3])
             ct.append(T[:3, 3])
@@ -117,7 +132,7 @@ class PrimitiveSet:
 
     def distance(self, points: np.ndarray) -> np.ndarray:
         """Signed distance [m] of each world point (N,3) to the nearest primitive (inf if none)."""
-        P = np.ascontiguousarray(np.asarray(points, np.float64).reshape(-1, 3))
+        P = np.ascontiguousarray(points_array(points, "points"))
         out = np.empty(P.shape[0])
         for i in range(P.shape[0]):
             out[i] = primitives_distance(P[i], self.arrays(), -np.inf)
@@ -192,13 +207,13 @@ class DistanceGrid:
     resolution: float
 
     def __post_init__(self) -> None:
-        d = np.ascontiguousarray(self.dist, dtype=np.float32)
+        d = np.ascontiguousarray(float_array(self.dist, "DistanceGrid.dist", "an (X, Y, Z) array [m]"), dtype=np.float32)
         if d.ndim != 3 or min(d.shape) < 1:
             raise CompassInputError(f"DistanceGrid.dist must be a non-empty (X,Y,Z) array, got {d.shape}")
-        o = np.asarray(self.origin, np.float64)
+        o = float_array(self.origin, "DistanceGrid.origin", "3 numbers [m]")
         if o.shape != (3,) or not np.all(np.isfinite(o)):
             raise CompassInputError(f"DistanceGrid.origin must be 3 finite values [m], got {self.origin}")
-        if not (np.isfinite(self.resolution) and self.resolution > 0):
+        if not real_number(self.resolution, "DistanceGrid.resolution", "a finite value > 0 [m]") > 0:
             raise CompassInputError(f"DistanceGrid.resolution {self.resolution} m must be > 0")
         object.__setattr__(self, "dist", d)
         object.__setattr__(self, "origin", o)

@@ -9,11 +9,14 @@ jerk [rad/s^3] limits (robot/model.py), optionally scaled down.
 """
 from __future__ import annotations
 
+import math
+
 from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import CompassInputError
+from ..errors import CompassInputError, real_number
+from ..robot.kinematics import check_Q
 from ..robot.model import N_ARM_JOINTS, QD_MAX, QDD_MAX, QDDD_MAX
 from ..types import Trajectory
 
@@ -28,21 +31,34 @@ class TimingConfig:
     dt: float = 0.004
 
     def __post_init__(self) -> None:
+        for name in ("velocity_scale", "acceleration_scale", "jerk_scale", "dt"):
+            real_number(getattr(self, name), f"TimingConfig.{name}")
         for name in ("velocity_scale", "acceleration_scale", "jerk_scale"):
             v = getattr(self, name)
-            if not (np.isfinite(v) and 0.0 < v <= 1.0):
+            if not (math.isfinite(float(v)) and 0.0 < v <= 1.0):
                 raise CompassInputError(f"TimingConfig.{name} = {v} is not allowed; use 0 < scale <= 1")
-        if not (np.isfinite(self.dt) and 1e-4 <= self.dt <= 0.1):
+        if not (math.isfinite(float(self.dt)) and 1e-4 <= self.dt <= 0.1):
             raise CompassInputError(f"TimingConfig.dt = {self.dt} s is not allowed; use 1e-4..0.1 s")
 
 
-def _check_path(path: np.ndarray) -> np.ndarray:
-    path = np.asarray(path, dtype=np.float64)
+def _check_path(path: np.ndarray, within_limits: bool = False) -> np.ndarray:
+    """path as float64 (n>=1, 7) [rad], finite; with within_limits, inside the Panda's joint
+    limits (a path to be timed and executed on the arm)."""
+    try:
+        path = np.asarray(path, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise CompassInputError(f"path must be an (n, 7) array of joint angles [rad], got {path!r:.80}") from exc
     if path.ndim != 2 or path.shape[1] != N_ARM_JOINTS or path.shape[0] < 1:
         raise CompassInputError(f"path must have shape (n>=1, 7) [rad], got {path.shape}")
     if not np.all(np.isfinite(path)):
         raise CompassInputError("path contains NaN or inf joint angles")
+    if within_limits:
+        check_Q(path, "path")
     return path
+
+
+#: Most states `densify` returns (a guard against paths in the wrong unit, e.g. degrees).
+MAX_DENSE_STATES = 10_000_000
 
 
 def _segments(path: np.ndarray, config: TimingConfig) -> tuple[np.ndarray, list]:
@@ -50,7 +66,7 @@ def _segments(path: np.ndarray, config: TimingConfig) -> tuple[np.ndarray, list]
     from ruckig import InputParameter, Result, Ruckig, Synchronization
     from ruckig import Trajectory as RuckigTrajectory
 
-    path = _check_path(path)
+    path = _check_path(path, within_limits=True)
     keep = np.ones(len(path), dtype=bool)
     keep[1:] = np.any(np.abs(np.diff(path, axis=0)) > 1e-12, axis=1)
     wps = path[keep]
@@ -70,7 +86,10 @@ def _segments(path: np.ndarray, config: TimingConfig) -> tuple[np.ndarray, list]
         inp.current_position = a.tolist()
         inp.target_position = b.tolist()
         traj = RuckigTrajectory(N_ARM_JOINTS)
-        result = otg.calculate(inp, traj)
+        try:
+            result = otg.calculate(inp, traj)
+        except (ValueError, RuntimeError) as exc:  # ruckig reports some failures as unknown codes
+            raise CompassInputError(f"ruckig could not time the segment {a} -> {b} [rad]: {exc}") from exc
         if result not in (Result.Working, Result.Finished):
             raise CompassInputError(f"ruckig could not time the segment {a} -> {b}: {result}")
         segments.append(traj)
@@ -114,11 +133,15 @@ def joint_path_length(path: np.ndarray) -> float:
 def densify(path: np.ndarray, max_step: float) -> np.ndarray:
     """Insert states along each straight segment so no joint moves more than max_step [rad]."""
     path = _check_path(path)
+    max_step = real_number(max_step, "max_step", "a finite step > 0 [rad]")
     if not max_step > 0.0:
         raise CompassInputError(f"max_step = {max_step} rad is not allowed; use > 0")
+    steps = np.maximum(1, np.ceil(np.max(np.abs(np.diff(path, axis=0)), axis=1, initial=0.0) / max_step))
+    if steps.sum() > MAX_DENSE_STATES:
+        raise CompassInputError(f"densify would create {steps.sum():.3g} states (max_step {max_step} rad); at most "
+                                f"{MAX_DENSE_STATES}: is the path in radians?")
     out = [path[:1]]
-    for a, b in zip(path[:-1], path[1:]):
-        n = max(1, int(np.ceil(np.max(np.abs(b - a)) / max_step)))
+    for a, b, n in zip(path[:-1], path[1:], steps.astype(np.int64)):
         s = np.linspace(0.0, 1.0, n + 1)[1:, None]
         out.append(a + s * (b - a))
     return np.concatenate(out)

@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 import numba as nb
 import numpy as np
 
-from ..errors import CompassInputError
+from ..errors import CompassInputError, real_number
 from ..robot.kinematics import check_Q, fk_links_kernel
 from ..robot.model import Q_MAX, Q_MIN, check_q
 from ..robot.spheres import SphereModel, weld_groups
@@ -49,6 +49,8 @@ class ValidityConfig:
     edge_resolution: float = 0.01
 
     def __post_init__(self) -> None:
+        for name in ("margin", "self_margin", "edge_resolution"):
+            real_number(getattr(self, name), f"ValidityConfig.{name}")
         if not (0.0 <= self.margin <= 0.5 and 0.0 <= self.self_margin <= 0.5):
             raise CompassInputError(f"margins {self.margin}, {self.self_margin} m must be in 0..0.5 m")
         if not 1e-4 <= self.edge_resolution <= 0.5:
@@ -197,7 +199,7 @@ class ValidityChecker:
         """Interpolation parameter s in [0,1] of the first invalid state on the straight joint
         segment q0 -> q1 (scanned from q0 in joint steps <= resolution [rad]); None if all valid."""
         q0, q1 = check_q(q0, "q0"), check_q(q1, "q1")
-        n = _n_steps(q0, q1, resolution or self.config.edge_resolution)
+        n = _n_steps(q0, q1, self.config.edge_resolution if resolution is None else resolution)
         k = edge_first_invalid_kernel(q0, q1, n, *self.kernel_args())
         return None if k < 0 else k / n
 
@@ -208,7 +210,7 @@ class ValidityChecker:
         adaptive: skip states proven valid by a checked neighbour's clearance (`edge_bounds`;
         the same answer; faster on long edges away from obstacles, slower close to them)."""
         q0, q1 = check_q(q0, "q0"), check_q(q1, "q1")
-        n = _n_steps(q0, q1, resolution or self.config.edge_resolution)
+        n = _n_steps(q0, q1, self.config.edge_resolution if resolution is None else resolution)
         if adaptive:
             return bool(edge_valid_adaptive_kernel(q0, q1, n, *self.edge_kernel_args()))
         return bool(edge_valid_kernel(q0, q1, n, *self.kernel_args()))
@@ -228,6 +230,7 @@ class ValidityChecker:
 
 
 def _n_steps(q0: np.ndarray, q1: np.ndarray, resolution: float) -> int:
+    resolution = real_number(resolution, "edge resolution", "1e-4..0.5 rad")
     if not 1e-4 <= resolution <= 0.5:
         raise CompassInputError(f"edge resolution {resolution} rad must be in 1e-4..0.5 rad")
     return max(1, int(math.ceil(float(np.max(np.abs(q1 - q0))) / resolution)))

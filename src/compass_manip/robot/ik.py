@@ -17,7 +17,7 @@ from functools import lru_cache
 import numba as nb
 import numpy as np
 
-from ..errors import CompassInputError
+from ..errors import CompassInputError, instance_of, real_number, check_field_types
 from ..geometry import check_rigid, inv_T, look_at
 from .kinematics import PandaKinematics, fk_links_kernel, jacobian_kernel
 from .model import Q_MAX, Q_MIN, RobotConfig, check_q
@@ -39,6 +39,7 @@ class IKConfig:
     dedupe_tol: float = 1e-3
 
     def __post_init__(self) -> None:
+        check_field_types(self)
         if not 1 <= self.n_q7 <= 1000:
             raise CompassInputError(f"n_q7 {self.n_q7} is not allowed; use 1..1000")
         if not 0 <= self.refine_iters <= 1000:
@@ -159,10 +160,15 @@ class PandaIK:
         only collision-free solutions. retry: sweep n_q7_retry values of q7 if n_q7 found none."""
         T_world_frame = check_rigid(T_world_frame, "T_world_frame")
         q_ref = check_q(q_ref, "q_ref")
+<<<<<<< HEAD
         config = self.config
         n_q7 = config.n_q7 if n_q7 is None else int(n_q7)
         if not 1 <= n_q7 <= 1000:
             raise CompassInputError(f"n_q7 {n_q7} is not allowed; use 1..1000")
+=======
+        cfg = self.config
+        n_q7 = cfg.n_q7 if n_q7 is None else _whole(n_q7, "n_q7", 1, 1000)
+>>>>>>> hardening
         T_world_hand = T_world_frame @ inv_T(self.kin.T_hand_frame(frame))
         T_base_flange = self.T_base_world @ T_world_hand @ self.T_hand_link8
         S, pe, re, n_cand = self._sweep(T_world_hand, T_base_flange, q_ref, n_q7)
@@ -199,7 +205,18 @@ class PandaIK:
         return np.array(sols).reshape(-1, 7), np.array(pes), np.array(res), len(cands)
 
 
+<<<<<<< HEAD
 def _ordered(S, pe, re, T, q_ref, tol, frame, failure) -> IKResult:
+=======
+def _whole(value, name: str, low: int, high: int) -> int:
+    """value as an int if it is a whole number in low..high, else CompassInputError."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)) or not low <= value <= high:
+        raise CompassInputError(f"{name} {value!r:.40} is not allowed; use a whole number {low}..{high}")
+    return int(value)
+
+
+def _ordered(S, pe, re, T, q_ref, tol, frame, status) -> IKResult:
+>>>>>>> hardening
     order = np.argsort(np.linalg.norm(S - q_ref, axis=1), kind="stable")
     keep: list[int] = []
     for i in order:
@@ -239,13 +256,21 @@ def ik_look_at(point: np.ndarray, distance: float, q_ref: np.ndarray, rng: np.ra
     (rng: explicit generator; None = a fixed Fibonacci pattern), each with 4 camera rolls;
     solutions from all views are merged and ordered by joint distance to q_ref.
     """
-    point = np.asarray(point, np.float64)
+    try:
+        point = np.asarray(point, np.float64)
+    except (TypeError, ValueError) as exc:
+        raise CompassInputError(f"point must be 3 finite coordinates [m], got {point!r:.80}") from exc
     if point.shape != (3,) or not np.all(np.isfinite(point)):
         raise CompassInputError(f"point must be 3 finite coordinates [m], got {point}")
-    if not (np.isfinite(distance) and 0.05 <= distance <= 2.0):
+    distance = real_number(distance, "distance", "0.05..2 m")
+    if not (0.05 <= distance <= 2.0):
         raise CompassInputError(f"distance {distance} m is not allowed; use 0.05..2 m")
-    if not 1 <= n_samples <= 10000:
-        raise CompassInputError(f"n_samples {n_samples} is not allowed; use 1..10000")
+    n_samples = _whole(n_samples, "n_samples", 1, 10000)
+    max_polar_deg = real_number(max_polar_deg, "max_polar_deg", "0..180 deg")
+    if not 0.0 <= max_polar_deg <= 180.0:
+        raise CompassInputError(f"max_polar_deg {max_polar_deg} is not allowed; use 0..180 deg")
+    if rng is not None:
+        instance_of(rng, np.random.Generator, "rng")
     q_ref = check_q(q_ref, "q_ref")
     solver = _solver(robot_config, ik)
     cosmax = math.cos(math.radians(max_polar_deg))

@@ -19,7 +19,7 @@ from typing import NamedTuple
 import numba as nb
 import numpy as np
 
-from ..errors import CompassInputError
+from ..errors import CompassInputError, real_number
 from ..geometry import make_T, quat_to_R
 from .model import ARM_JOINTS, FINGER_JOINTS, GRIPPER_MAX_WIDTH, N_ARM_JOINTS, T_HAND_TCP
 from .model import Q_MAX, Q_MIN, RobotConfig, build_robot_spec, check_q
@@ -211,7 +211,10 @@ def check_Q(Q: np.ndarray, name: str = "Q") -> np.ndarray:
 
     Vectorised counterpart of `check_q`: NaN/inf or out-of-limit rows raise CompassInputError.
     """
-    Q = np.asarray(Q, dtype=np.float64)
+    try:
+        Q = np.asarray(Q, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise CompassInputError(f"{name} must be an (N, 7) array of joint angles [rad], got {Q!r:.80}") from exc
     if Q.ndim != 2 or Q.shape[1] != N_ARM_JOINTS:
         raise CompassInputError(f"{name} must be an (N, 7) array of joint angles [rad], got {Q.shape}")
     bad = ~np.all(np.isfinite(Q) & (Q >= Q_MIN - 1e-9) & (Q <= Q_MAX + 1e-9), axis=1)
@@ -244,7 +247,8 @@ class PandaKinematics:
     """
 
     def __init__(self, robot_config: RobotConfig | None = None, finger_width: float = GRIPPER_MAX_WIDTH):
-        if not (np.isfinite(finger_width) and 0.0 <= finger_width <= MAX_FINGER_WIDTH):
+        finger_width = real_number(finger_width, "finger_width", f"0..{MAX_FINGER_WIDTH} m")
+        if not (0.0 <= finger_width <= MAX_FINGER_WIDTH):
             raise CompassInputError(
                 f"finger_width {finger_width} m is not allowed; use 0..{MAX_FINGER_WIDTH} m "
                 f"(0..{GRIPPER_MAX_WIDTH} m on the real hand)"
@@ -272,6 +276,8 @@ class PandaKinematics:
 
     def T_hand_frame(self, frame: str) -> np.ndarray:
         """Fixed transform hand flange -> frame ('tcp', 'cam' or 'hand')."""
+        if not isinstance(frame, str):
+            raise CompassInputError(f"frame {frame!r:.40} is not allowed; use one of {FRAMES}")
         if frame == "tcp":
             return self.T_hand_tcp
         if frame == "cam":

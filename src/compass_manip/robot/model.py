@@ -121,7 +121,10 @@ def assets_dir() -> str:
 
 def check_q(q: np.ndarray, name: str = "q") -> np.ndarray:
     """Return q as a float64 (7,) array or raise naming the bad value and the limits."""
-    q = np.asarray(q, dtype=np.float64)
+    try:
+        q = np.asarray(q, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise CompassInputError(f"{name} must be 7 joint angles [rad], got {q!r:.80}") from exc
     if q.shape != (N_ARM_JOINTS,):
         raise CompassInputError(f"{name} must have 7 joint angles [rad], got shape {q.shape}")
     if not np.all(np.isfinite(q)):

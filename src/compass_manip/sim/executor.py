@@ -10,7 +10,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import CompassInputError
+from ..errors import CompassInputError, real_number
+from ..robot.kinematics import MAX_FINGER_WIDTH
 from ..robot.model import check_q
 from ..types import Frame, Trajectory
 from .world import Contact, World
@@ -31,10 +32,16 @@ class ExecutorConfig:
     raycast_depth: bool = False
 
     def __post_init__(self) -> None:
-        if not (self.frame_rate >= 0 and np.isfinite(self.frame_rate)):
-            raise CompassInputError(f"frame_rate {self.frame_rate} Hz is not allowed; use a finite value >= 0")
-        if not (0 < self.check_step <= 0.5):
-            raise CompassInputError(f"check_step {self.check_step} rad is not allowed; use 0 < step <= 0.5")
+        rate = real_number(self.frame_rate, "ExecutorConfig.frame_rate", "a finite value 0..1000 Hz")
+        if not 0.0 <= rate <= 1000.0:
+            raise CompassInputError(f"frame_rate {self.frame_rate} Hz is not allowed; use a finite value 0..1000 Hz")
+        step = real_number(self.check_step, "ExecutorConfig.check_step", "1e-4..0.5 rad")
+        if not (1e-4 <= step <= 0.5):
+            raise CompassInputError(f"check_step {self.check_step} rad is not allowed; use 1e-4..0.5 rad")
+        for name in ("stop_on_contact", "include_self", "render_rgb", "render_seg", "raycast_depth"):
+            if not isinstance(getattr(self, name), (bool, np.bool_)):
+                raise CompassInputError(f"ExecutorConfig.{name} = {getattr(self, name)!r:.40} is not allowed; "
+                                        "use True or False")
 
 
 @dataclass(frozen=True)
@@ -56,8 +63,15 @@ class ExecutionResult:
 
 
 def check_trajectory(traj: Trajectory) -> Trajectory:
-    t = np.asarray(traj.t, dtype=float)
-    q = np.asarray(traj.q, dtype=float)
+    """traj with float t (n,) [s] and q (n, 7) [rad], or CompassInputError: n >= 1, times
+    finite and strictly increasing, every q finite and within the joint limits."""
+    try:
+        t = np.asarray(traj.t, dtype=float)
+        q = np.asarray(traj.q, dtype=float)
+    except AttributeError as exc:
+        raise CompassInputError(f"trajectory {traj!r:.60} is not a Trajectory (needs t and q)") from exc
+    except (TypeError, ValueError) as exc:
+        raise CompassInputError("trajectory t and q must be arrays of numbers ([s], [rad])") from exc
     if t.ndim != 1 or q.ndim != 2 or q.shape != (len(t), 7) or len(t) < 1:
         raise CompassInputError(f"trajectory needs t (n,) and q (n, 7) with n >= 1, got {t.shape} and {q.shape}")
     if not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
@@ -81,18 +95,27 @@ def interpolate(traj: Trajectory, t: np.ndarray) -> np.ndarray:
     return np.stack([np.interp(t, traj.t, traj.q[:, j]) for j in range(traj.q.shape[1])], axis=1)
 
 
-def execute(world: World, traj: Trajectory, cfg: ExecutorConfig | None = None, t0: float = 0.0,
+def execute(world: World, traj: Trajectory, config: ExecutorConfig | None = None, t0: float = 0.0,
             finger_width: float | None = None) -> ExecutionResult:
     """Move the arm along `traj` (times relative to its first sample, offset by t0 [s]).
 
     Reports every ground-truth robot-scene (and self) contact; with stop_on_contact the
-    arm halts at the last contact-free sample.
+    arm halts at the last contact-free sample. Bad input (config, trajectory, a non-finite
+    t0, a finger_width outside 0..MAX_FINGER_WIDTH m) raises CompassInputError before the
+    world is touched.
     """
-    cfg = cfg or ExecutorConfig()
+    config = ExecutorConfig() if config is None else config
+    if not isinstance(config, ExecutorConfig):
+        raise CompassInputError(f"config {config!r:.60} is not allowed; give an ExecutorConfig or None")
+    t0 = real_number(t0, "t0", "a finite start time [s]")
+    if finger_width is not None:
+        finger_width = real_number(finger_width, "finger_width", f"0..{MAX_FINGER_WIDTH} m or None")
+        if not 0.0 <= finger_width <= MAX_FINGER_WIDTH:
+            raise CompassInputError(f"finger_width {finger_width} m is not allowed; use 0..{MAX_FINGER_WIDTH} m or None")
     traj = check_trajectory(traj)
-    ts = sample_times(traj, cfg.check_step)
+    ts = sample_times(traj, config.check_step)
     qs = interpolate(traj, ts)
-    period = 1.0 / cfg.frame_rate if cfg.frame_rate > 0 else np.inf
+    period = 1.0 / config.frame_rate if config.frame_rate > 0 else np.inf
     next_frame = traj.t[0] + period
     contacts: list[TimedContact] = []
     frames: list[Frame] = []
@@ -100,10 +123,10 @@ def execute(world: World, traj: Trajectory, cfg: ExecutorConfig | None = None, t
     t_last = traj.t[0]
     completed = True
     for t, q in zip(ts, qs):
-        found = world.contacts(q, finger_width, include_self=cfg.include_self)
+        found = world.contacts(q, finger_width, include_self=config.include_self)
         if found:
             contacts.extend(TimedContact(float(t - traj.t[0] + t0), q.copy(), c) for c in found)
-            if cfg.stop_on_contact:
+            if config.stop_on_contact:
                 completed = False
                 break
         else:
@@ -111,13 +134,13 @@ def execute(world: World, traj: Trajectory, cfg: ExecutorConfig | None = None, t
         t_last = t
         while t >= next_frame - 1e-9:
             q_frame = interpolate(traj, np.array([next_frame]))[0]
-            frames.append(_frame(world, q_frame, next_frame - traj.t[0] + t0, cfg))
+            frames.append(_frame(world, q_frame, next_frame - traj.t[0] + t0, config))
             next_frame += period
     q_end = q_last_free if not completed else qs[-1]
     world.set_q(q_end, finger_width)
     return ExecutionResult(completed, float(t_last - traj.t[0] + t0), q_end.copy(), tuple(contacts), tuple(frames))
 
 
-def _frame(world: World, q: np.ndarray, t: float, cfg: ExecutorConfig) -> Frame:
+def _frame(world: World, q: np.ndarray, t: float, config: ExecutorConfig) -> Frame:
     world.set_q(q)
-    return world.render(t=t, rgb=cfg.render_rgb, seg=cfg.render_seg, raycast=cfg.raycast_depth)
+    return world.render(t=t, rgb=config.render_rgb, seg=config.render_seg, raycast=config.raycast_depth)
