@@ -160,15 +160,8 @@ class PandaIK:
         only collision-free solutions. retry: sweep n_q7_retry values of q7 if n_q7 found none."""
         T_world_frame = check_rigid(T_world_frame, "T_world_frame")
         q_ref = check_q(q_ref, "q_ref")
-<<<<<<< HEAD
         config = self.config
-        n_q7 = config.n_q7 if n_q7 is None else int(n_q7)
-        if not 1 <= n_q7 <= 1000:
-            raise CompassInputError(f"n_q7 {n_q7} is not allowed; use 1..1000")
-=======
-        cfg = self.config
-        n_q7 = cfg.n_q7 if n_q7 is None else _whole(n_q7, "n_q7", 1, 1000)
->>>>>>> hardening
+        n_q7 = config.n_q7 if n_q7 is None else _whole(n_q7, "n_q7", 1, 1000)
         T_world_hand = T_world_frame @ inv_T(self.kin.T_hand_frame(frame))
         T_base_flange = self.T_base_world @ T_world_hand @ self.T_hand_link8
         S, pe, re, n_cand = self._sweep(T_world_hand, T_base_flange, q_ref, n_q7)
@@ -205,9 +198,6 @@ class PandaIK:
         return np.array(sols).reshape(-1, 7), np.array(pes), np.array(res), len(cands)
 
 
-<<<<<<< HEAD
-def _ordered(S, pe, re, T, q_ref, tol, frame, failure) -> IKResult:
-=======
 def _whole(value, name: str, low: int, high: int) -> int:
     """value as an int if it is a whole number in low..high, else CompassInputError."""
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)) or not low <= value <= high:
@@ -215,8 +205,7 @@ def _whole(value, name: str, low: int, high: int) -> int:
     return int(value)
 
 
-def _ordered(S, pe, re, T, q_ref, tol, frame, status) -> IKResult:
->>>>>>> hardening
+def _ordered(S, pe, re, T, q_ref, tol, frame, failure) -> IKResult:
     order = np.argsort(np.linalg.norm(S - q_ref, axis=1), kind="stable")
     keep: list[int] = []
     for i in order:
