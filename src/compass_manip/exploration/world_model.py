@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 
 import numba as nb
 import numpy as np
+from scipy import ndimage
 
 from ..mapping.distance import DistanceField
 from ..mapping.frontiers import FrontierCluster, FrontierConfig, find_frontiers
@@ -46,7 +47,8 @@ class WorldModelConfig:
     outside the confined space's outer box (its interior grown by the wall thickness plus
     space_margin [m], extended down to the floor) and more than floor_margin [m] above the
     floor count as free for motion, as the paper's planner treats all unknown space (inside
-    the confined space, where the clutter is, unknown stays unsafe)."""
+    the confined space, where the clutter is, unknown stays unsafe), except within
+    obstacle_halo [m] of a voxel seen occupied (an obstacle seen in part probably goes on)."""
 
     map: MapConfig = field(default_factory=default_map_config)
     max_range: float = 1.5
@@ -55,6 +57,7 @@ class WorldModelConfig:
     assume_free_outside_space: bool = True
     space_margin: float = 0.06
     floor_margin: float = 0.05
+    obstacle_halo: float = 0.08
     sweep_step: float = 0.05
     validity: ValidityConfig = field(default_factory=lambda: ValidityConfig(margin=0.005, edge_resolution=0.02))
     frontiers: FrontierConfig = field(default_factory=lambda: FrontierConfig(min_cluster_size=4))
@@ -136,7 +139,12 @@ class WorldModel:
         """Validity against the current map (unknown unsafe, swept space safe); cached
         until the next observation or executed path."""
         if self._checker is None:
-            safe = (self.swept | self.assumed_free) & ~self.occ.occupied_mask()  # seen obstacles always count
+            occupied = self.occ.occupied_mask()
+            assumed = self.assumed_free
+            halo = int(round(self.config.obstacle_halo / self.occ.resolution))
+            if halo > 0 and assumed.any():
+                assumed = assumed & ~ndimage.binary_dilation(occupied, iterations=halo)
+            safe = (self.swept | assumed) & ~occupied  # seen obstacles always count
             field_ = DistanceField.from_map(self.occ, safe_voxels=safe)
             self._checker = ValidityChecker(self.spheres, grid=DistanceGrid.from_distance_field(field_),
                                             config=self.config.validity)
