@@ -17,6 +17,7 @@ SUBCOMMANDS = {
     "scenes": "scenes",
     "demo": "demo",
     "mbm": "mbm",
+    "run": "run",
 }
 
 

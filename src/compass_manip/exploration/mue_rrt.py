@@ -36,7 +36,9 @@ class TreeConfig:
     confined space for points of interest); ik_q7 q7 samples of the camera IK; rays (nu,
     nv) for the gain; gain_range [m]; min_gain [voxels] for a node to count as a view;
     gain_in_space: count only unknown voxels inside the confined space's interior grown by
-    space_margin [m] (where the target can be), instead of all unknown voxels in view."""
+    space_margin [m] (where the target can be), instead of all unknown voxels in view;
+    min_view_change [m]: a node counts as a new view only if its camera moved at least this
+    far from the root's, or turned by at least min_view_change rad (no creeping)."""
 
     iterations: int = 60
     p_frontier: float = 0.4
@@ -53,6 +55,7 @@ class TreeConfig:
     gain_range: float = 1.0
     min_gain: int = 8
     gain_in_space: bool = True
+    min_view_change: float = 0.05
     space_margin: float = 0.05
 
     def __post_init__(self) -> None:
@@ -138,6 +141,9 @@ def score_tree(world, tree: JointTree, K: np.ndarray, t_prev: np.ndarray | None,
     U = utility(G, D, M, H, C, weights.as_tuple(), weights.cost_offset)
     U[0] = -np.inf
     U[G < config.min_gain] = -np.inf
+    moved = np.linalg.norm(t - t[0], axis=1)
+    turned = np.arccos(np.clip(T[:, :3, 2] @ T[0, :3, 2], -1.0, 1.0))
+    U[(moved < config.min_view_change) & (turned < config.min_view_change)] = -np.inf
     return ScoredTree(tree, T, G, D, M, H, C, U)
 
 

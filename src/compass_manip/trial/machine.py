@@ -41,7 +41,8 @@ class TrialState(enum.Enum):
 class MachineOutcome:
     """How the run ended: the failure (None when found), the accepted detection (a
     `perception.buffer.BufferedDetection`) and the time it was found [s], the end time [s],
-    the states visited in order and the executed camera positions (N, 3) [m]."""
+    the states visited in order, the executed camera positions (N, 3) [m] and the final
+    configuration q_end (7,) [rad]."""
 
     failure: TrialFailure | None
     found: object | None
@@ -49,6 +50,7 @@ class MachineOutcome:
     t_end: float
     states: tuple[TrialState, ...]
     camera_path: np.ndarray
+    q_end: np.ndarray
 
 
 class TrialMachine:
@@ -123,4 +125,5 @@ class TrialMachine:
             if t_found > limit:
                 failure, found, t_found = TrialFailure.TIME_LIMIT, None, None
         self._enter(TrialState.DONE if failure is None else TrialState.FAILED)
-        return MachineOutcome(failure, found, t_found, self.t, tuple(self.states), np.array(self.cam).reshape(-1, 3))
+        return MachineOutcome(failure, found, t_found, self.t, tuple(self.states), np.array(self.cam).reshape(-1, 3),
+                              self.world.q)
