@@ -44,3 +44,13 @@ def test_manipulability_term_is_yoshikawa():
     J = kin.jacobian(Q_HOME)
     assert kin.manipulability(Q_HOME) == pytest.approx(np.sqrt(np.linalg.det(J @ J.T)), rel=1e-9)
     assert kin.manipulability_batch(Q_HOME[None])[0] == pytest.approx(kin.manipulability(Q_HOME), rel=1e-9)
+
+
+def test_view_pose_matches_look_at_with_roll():
+    from compass_manip.exploration.viewpoints import view_pose
+    from compass_manip.geometry import look_at, make_T, rot_z
+
+    p, d = np.array([0.7, -0.1, 0.5]), np.array([0.8, 0.3, -0.5])
+    d /= np.linalg.norm(d)
+    T = view_pose(p, d, 0.4, 0.7)
+    np.testing.assert_allclose(T, look_at(p - 0.4 * d, p) @ make_T(rot_z(0.7)), atol=1e-12)

@@ -40,7 +40,7 @@ class TreeConfig:
     min_view_change [m]: a node counts as a new view only if its camera moved at least this
     far from the root's, or turned by at least min_view_change rad (no creeping)."""
 
-    iterations: int = 60
+    iterations: int = 40
     p_frontier: float = 0.4
     p_prior: float = 0.2
     step: float = 0.15

@@ -10,7 +10,8 @@ unsafe even inside the swept space.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+import copy
+from dataclasses import dataclass, field, replace
 
 import numba as nb
 import numpy as np
@@ -112,6 +113,7 @@ class WorldModel:
         self.swept = np.zeros(self.occ.shape, bool)
         self.q = np.asarray(q_start, dtype=np.float64).copy()
         self._checker: ValidityChecker | None = None
+        self._base_checker: ValidityChecker | None = None
         self._frontiers: tuple[FrontierCluster, ...] | None = None
         self.assumed_free = np.zeros(self.occ.shape, bool)
         if task is not None and self.config.assume_free_outside_space:
@@ -146,9 +148,22 @@ class WorldModel:
                 assumed = assumed & ~ndimage.binary_dilation(occupied, iterations=halo)
             safe = (self.swept | assumed) & ~occupied  # seen obstacles always count
             field_ = DistanceField.from_map(self.occ, safe_voxels=safe)
-            self._checker = ValidityChecker(self.spheres, grid=DistanceGrid.from_distance_field(field_),
-                                            config=self.config.validity)
+            self._checker = self._checker_for(DistanceGrid.from_distance_field(field_))
         return self._checker
+
+    def _checker_for(self, grid: DistanceGrid) -> ValidityChecker:
+        """A checker on a new distance grid of the same shape and resolution. Packing the
+        robot's spheres costs ~15 ms per checker, so the first checker's packed robot is
+        reused and only its grid arrays are swapped (same layout as `ValidityChecker`)."""
+        base = self._base_checker
+        if base is None:
+            base = self._base_checker = ValidityChecker(self.spheres, grid=grid, config=self.config.validity)
+            return base
+        c = copy.copy(base)
+        c.grid = grid
+        c._p = replace(base._p, grid=(grid.dist, grid.origin, grid.resolution, True,
+                                      base.config.outside_grid_free))
+        return c
 
     @property
     def frontiers(self) -> tuple[FrontierCluster, ...]:

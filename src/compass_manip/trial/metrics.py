@@ -18,6 +18,7 @@ class MetricsRecorder:
         self.plans_attempted = 0
         self.plans_succeeded = 0
         self.decision_s: list[float] = []
+        self.decision_phase: list[str] = []
         self.decisions = 0
         self.collisions = 0
         self.explored: list[tuple[float, float]] = []
@@ -32,6 +33,7 @@ class MetricsRecorder:
         self.plans_attempted += d.plans_attempted
         self.plans_succeeded += d.plans_succeeded
         self.decision_s.append(d.compute_s)
+        self.decision_phase.append(d.phase.value)
 
     def motion(self, traj: Trajectory, t0: float, t_end: float) -> None:
         """An executed trajectory started at t0 [s] (relative times in traj.t), up to t_end."""

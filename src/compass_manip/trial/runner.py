@@ -54,11 +54,13 @@ def trial_rng(spec: TrialSpec) -> np.random.Generator:
 
 @dataclass(frozen=True, eq=False)
 class TrialRun:
-    """A result with what the CLI draws: the machine's outcome and the scene."""
+    """A result with what the CLI draws and the benchmark reads: the machine's outcome,
+    the scene and the metrics recorder (per-decision compute times and phases)."""
 
     result: TrialResult
     outcome: MachineOutcome
     scene: object
+    metrics: MetricsRecorder
 
 
 def run_trial(spec: TrialSpec, config: TrialConfig | None = None, progress=None) -> TrialResult:
@@ -102,4 +104,4 @@ def run_trial_full(spec: TrialSpec, config: TrialConfig | None = None, progress=
         explored_curve=tuple(metrics.explored), decisions=metrics.decisions, planning_ms_median=med,
         planning_ms_p90=p90, wall_s=time.perf_counter() - wall0, true_detection=true_det,
     )
-    return TrialRun(result, outcome, scene)
+    return TrialRun(result, outcome, scene, metrics)
