@@ -27,7 +27,10 @@ class CompassConfig:
     """world: map and validity; nfa: the near-field scan; tree: MUE-RRT sampling; weights:
     utility weights; verify_resolution [rad]: joint step of the final path check;
     max_attempts: best nodes tried when a path fails re-validation; retry_iterations_factor:
-    a second, larger tree when the first has no node worth going to; prior_inset [m];
+    a second, larger tree when the first has no node worth going to (before that, and
+    again after it, nodes are rescored with the gain of all unknown voxels when the
+    confined space offers none from the tree: seeing more of the surroundings frees space
+    to move in); prior_inset [m];
     hint_memory: partial-match points kept (most recent)."""
 
     world: WorldModelConfig = field(default_factory=WorldModelConfig)
@@ -135,13 +138,19 @@ class CompassMethod:
             self._gain_map = safe_box_map(self.world.occ, np.asarray(self.task.space.interior_min) - m,
                                           np.asarray(self.task.space.interior_max) + m, self._gain_map)
             gain_map = self._gain_map
+        gain_scope = "space" if gain_map is not None else "all"
         for factor in (1, cfg.retry_iterations_factor):
             tree_cfg = cfg.tree if factor == 1 else _scaled(cfg.tree, factor)
             tree = grow_tree(self.world, self.ik, frontiers, points, outward, tree_cfg, self.rng)
             scored = score_tree(self.world, tree, self.K, self.t_prev, points, cfg.weights, tree_cfg, gain_map)
             if np.isfinite(scored.U).any():
                 break
-        stats = {"tree_nodes": int(scored.tree.count), "frontiers": len(frontiers)}
+            if gain_map is not None:  # nothing new inside the space from here: open up the near field
+                scored = score_tree(self.world, tree, self.K, self.t_prev, points, cfg.weights, tree_cfg)
+                if np.isfinite(scored.U).any():
+                    gain_scope = "all"
+                    break
+        stats = {"tree_nodes": int(scored.tree.count), "frontiers": len(frontiers), "gain_scope": gain_scope}
         if not np.isfinite(scored.U).any():
             stop = StopReason.EXPLORED if not frontiers else StopReason.NO_REACHABLE_VIEW
             return Decision(None, stop, Phase.EXPLORE, stats=stats)

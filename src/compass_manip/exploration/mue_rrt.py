@@ -36,7 +36,9 @@ class TreeConfig:
     confined space for points of interest); ik_q7 q7 samples of the camera IK; rays (nu,
     nv) for the gain; gain_range [m]; min_gain [voxels] for a node to count as a view;
     gain_in_space: count only unknown voxels inside the confined space's interior grown by
-    space_margin [m] (where the target can be), instead of all unknown voxels in view;
+    space_margin [m] (where the target can be; negative: inset, so that voxels inside its
+    boards and just outside them, which no view can clear, do not lure the camera),
+    instead of all unknown voxels in view;
     min_view_change [m]: a node counts as a new view only if its camera moved at least this
     far from the root's, or turned by at least min_view_change rad (no creeping)."""
 
@@ -55,8 +57,8 @@ class TreeConfig:
     gain_range: float = 1.0
     min_gain: int = 8
     gain_in_space: bool = True
-    min_view_change: float = 0.05
-    space_margin: float = 0.05
+    min_view_change: float = 0.1
+    space_margin: float = -0.01
 
     def __post_init__(self) -> None:
         if not (0 <= self.p_frontier and 0 <= self.p_prior and self.p_frontier + self.p_prior <= 1):
@@ -74,7 +76,7 @@ class UtilityWeights:
     momentum: float = 0.2
     manipulability: float = 0.3
     heuristic: float = 0.5
-    cost_offset: float = 0.3
+    cost_offset: float = 1.0
 
     def as_tuple(self) -> tuple[float, float, float, float]:
         return (self.gain, self.momentum, self.manipulability, self.heuristic)
