@@ -141,7 +141,8 @@ class CompassMethod:
         gain_scope = "space" if gain_map is not None else "all"
         for factor in (1, cfg.retry_iterations_factor):
             tree_cfg = cfg.tree if factor == 1 else _scaled(cfg.tree, factor)
-            tree = grow_tree(self.world, self.ik, frontiers, points, outward, tree_cfg, self.rng)
+            tree = grow_tree(self.world, self.ik, frontiers, points, outward, tree_cfg, self.rng,
+                             hinted=len(self.hints) > 0)
             scored = score_tree(self.world, tree, self.K, self.t_prev, points, cfg.weights, tree_cfg, gain_map)
             if np.isfinite(scored.U).any():
                 break

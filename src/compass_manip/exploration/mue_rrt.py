@@ -45,6 +45,7 @@ class TreeConfig:
     iterations: int = 40
     p_frontier: float = 0.4
     p_prior: float = 0.2
+    p_hint: float = 0.4
     step: float = 0.15
     local_range: float = 0.6
     res: float = 0.005
@@ -61,7 +62,8 @@ class TreeConfig:
     space_margin: float = -0.01
 
     def __post_init__(self) -> None:
-        if not (0 <= self.p_frontier and 0 <= self.p_prior and self.p_frontier + self.p_prior <= 1):
+        if not (0 <= self.p_frontier and 0 <= self.p_prior and 0 <= self.p_hint
+                and self.p_frontier + max(self.p_prior, self.p_hint) <= 1):
             raise CompassInputError(
                 f"p_frontier {self.p_frontier} + p_prior {self.p_prior} must be probabilities summing to <= 1")
         if self.iterations < 1 or self.capacity < 2:
@@ -98,8 +100,9 @@ class ScoredTree:
 
 
 def grow_tree(world, ik, frontiers, points, outward: np.ndarray, config: TreeConfig,
-              rng: np.random.Generator) -> JointTree:
-    """Grow a viewpoint tree from world.q on world.checker (see the module docstring)."""
+              rng: np.random.Generator, hinted: bool = False) -> JointTree:
+    """Grow a viewpoint tree from world.q on world.checker (see the module docstring);
+    hinted: the points are detector hints (sampled with p_hint instead of p_prior)."""
     tree = JointTree(world.q, world.checker, capacity=config.capacity, step=config.step, res=config.res)
     sizes = np.array([c.size for c in frontiers], float)
     pf = sizes / sizes.sum() if len(sizes) else sizes
@@ -113,7 +116,7 @@ def grow_tree(world, ik, frontiers, points, outward: np.ndarray, config: TreeCon
             c = frontiers[int(rng.choice(len(frontiers), p=pf))]
             d = sample_direction_in_cone(c.direction, config.cone, rng)
             T = view_pose(c.centroid_world, d, rng.uniform(*config.view_distance), rng.uniform(-np.pi / 2, np.pi / 2))
-        elif u < config.p_frontier + config.p_prior and len(pts):
+        elif u < config.p_frontier + (config.p_hint if hinted else config.p_prior) and len(pts):
             p = pts[int(rng.integers(len(pts)))]
             d = sample_direction_in_cone(-np.asarray(outward, float), config.cone, rng)
             T = view_pose(p, d, rng.uniform(*config.view_distance), rng.uniform(-np.pi / 2, np.pi / 2))

@@ -28,7 +28,7 @@ METHODS: dict[str, Callable] = {
     "compass-no-nfa": _compass("compass-no-nfa", lambda c: replace(c, nfa=replace(c.nfa, enabled=False))),
     "compass-no-heuristic": _compass(
         "compass-no-heuristic",
-        lambda c: replace(c, weights=replace(c.weights, heuristic=0.0), tree=replace(c.tree, p_prior=0.0))),
+        lambda c: replace(c, weights=replace(c.weights, heuristic=0.0), tree=replace(c.tree, p_prior=0.0, p_hint=0.0))),
     "compass-no-momentum": _compass("compass-no-momentum",
                                     lambda c: replace(c, weights=replace(c.weights, momentum=0.0))),
     "compass-no-manip": _compass("compass-no-manip",

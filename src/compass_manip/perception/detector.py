@@ -53,7 +53,7 @@ class DetectorConfig:
     which it is a sphere; min_side_pixels for a shape verdict; size_tolerance: measured
     extents may exceed the query's by this fraction (+ size_slack [m]); min_completeness:
     visible height and width over the query's needed to accept; border_px: regions touching
-    the image border are partial."""
+    the image border are partial unless at least border_completeness of the object shows."""
 
     colour_max_angle_deg: float = 10.0
     min_value: float = 0.12
@@ -68,6 +68,7 @@ class DetectorConfig:
     size_slack: float = 0.01
     min_completeness: float = 0.6
     border_px: int = 2
+    border_completeness: float = 0.75
     max_points: int = 3000
 
     def __post_init__(self) -> None:
@@ -233,7 +234,7 @@ class AppearanceDetector:
             verdict = Verdict.WRONG_SIZE
         elif shape not in ("unknown", family):
             verdict = Verdict.WRONG_SHAPE
-        elif shape == family and completeness >= cfg.min_completeness and not at_border:
+        elif shape == family and completeness >= (cfg.border_completeness if at_border else cfg.min_completeness):
             verdict = Verdict.ACCEPTED
         else:
             verdict = Verdict.PARTIAL
