@@ -19,12 +19,20 @@ KEYS = {"method", "level", "scene", "trial", "seed", "success", "failure", "tft_
 
 
 @pytest.fixture(scope="module")
+def found():
+    return run_trial_full(SPEC)
+
+
+@pytest.fixture(scope="module")
 def runs():
-    return run_trial_full(SPEC), run_trial_full(SPEC)
+    """Two short runs (12 s simulated) of one trial."""
+    config = TrialConfig(time_limit_s=12.0)
+    spec = TrialSpec("compass", level=1, scene=3, trial=1, seed=0)
+    return run_trial_full(spec, config), run_trial_full(spec, config)
 
 
-def test_level1_trial_finds_the_target(runs):
-    run = runs[0]
+def test_level1_trial_finds_the_target(found):
+    run = found
     r = run.result
     assert r.success and r.failure is None, r.failure
     assert r.true_detection is True and r.collisions == 0
@@ -45,6 +53,7 @@ def test_same_seed_gives_an_identical_trial(runs):
         a.pop(k), b.pop(k)
     assert a == b
     assert np.array_equal(runs[0].outcome.camera_path, runs[1].outcome.camera_path)
+    assert runs[0].result.decisions > 5
 
 
 def test_trial_seeds_differ_per_trial_and_specs_are_checked():

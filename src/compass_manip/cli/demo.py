@@ -11,6 +11,7 @@ import json
 import os
 import sys
 
+from ..errors import CompassInputError
 
 HELP = "run one COMPASS trial on a certified scene and write its outputs"
 
@@ -21,6 +22,7 @@ def add_arguments(p) -> None:
     p.add_argument("--seed", type=int, default=0, help="base seed (default 0)")
     p.add_argument("--trial", type=int, default=0, help="trial index (default 0)")
     p.add_argument("--method", default="compass", help="registered method (default compass)")
+    p.add_argument("--time-limit", type=float, default=200.0, help="simulated time limit [s] (default 200)")
     p.add_argument("--out", default="outputs/demo", help="output folder (default outputs/demo)")
     p.add_argument("--json", action="store_true", help="print the result as one JSON object on stdout")
 
@@ -30,11 +32,13 @@ def run(args) -> int:
     from .run import check_out, save_trial
 
     spec = check_spec(TrialSpec(args.method, args.level, args.index, args.trial, args.seed))
+    if not 0 < args.time_limit <= 3600:
+        raise CompassInputError(f"--time-limit {args.time_limit} s is not allowed; use 0 < limit <= 3600 s")
     out = check_out(args.out)
     from ..trial.config import TrialConfig
     from ..trial.runner import run_trial_full
 
-    config = TrialConfig()
+    config = TrialConfig(time_limit_s=args.time_limit)
     print(f"compass demo: {spec.method}, level {spec.level} scene {spec.scene} (seed {spec.seed}), "
           f"trial {spec.trial}", file=sys.stderr)
     result_run = run_trial_full(spec, config, lambda line: print(f"\r  {line}", end="", file=sys.stderr, flush=True))

@@ -17,6 +17,7 @@ def add_arguments(p) -> None:
     p.add_argument("--seed", type=int, default=0, help="base seed of the scene set (default 0)")
     p.add_argument("--trial", type=int, default=0, help="trial index >= 0 (its own random stream)")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of a table")
+    p.add_argument("--time-limit", type=float, default=200.0, help="simulated time limit [s] (default 200)")
     p.add_argument("--out", default=None, help="folder for result.json and the PNGs")
 
 
@@ -39,11 +40,13 @@ def run(args) -> int:
     from ..trial.runner import TrialSpec, check_spec
 
     spec = check_spec(TrialSpec(args.method, args.level, args.scene, args.trial, args.seed))
+    if not 0 < args.time_limit <= 3600:
+        raise CompassInputError(f"--time-limit {args.time_limit} s is not allowed; use 0 < limit <= 3600 s")
     out = check_out(args.out)
     from ..trial.config import TrialConfig
     from ..trial.runner import run_trial_full
 
-    config = TrialConfig()
+    config = TrialConfig(time_limit_s=args.time_limit)
     print(f"compass run: {spec.method} on level {spec.level} scene {spec.scene} trial {spec.trial} seed {spec.seed}",
           file=sys.stderr)
     progress = (lambda line: print(f"\r  {line}", end="", file=sys.stderr, flush=True))
