@@ -109,3 +109,18 @@ def test_box_model_plug_in_turns_boxes_into_detections():
     dets = BoxModelDetector(FakeModel())(frame.observation(), target_query(TARGET))
     assert [d.verdict for d in dets] == [Verdict.ACCEPTED, Verdict.PARTIAL]
     assert dets[0].bbox == (150, 100, 170, 130) and len(dets[0].points_world) > 0
+
+
+def test_oracle_detector_and_truth_check(detector):
+    from compass_manip.sim.oracle import OracleSegmentationDetector, detection_is_target, target_surroundings
+
+    same_colour = Primitive("red_can", "cylinder", (0.025, 0.06), (0.66, 0.0, FLOOR_Z + 0.06), 0.0, RED)
+    scene = _scene([same_colour])
+    frame, label = _observe(scene)
+    (oracle,) = OracleSegmentationDetector(label)(frame)
+    assert oracle.accepted and detection_is_target(scene, oracle)
+    dets = detector(frame.observation(), target_query(TARGET))
+    verdicts = {d.verdict: detection_is_target(scene, d) for d in dets}
+    assert verdicts[Verdict.ACCEPTED] is True and verdicts[Verdict.WRONG_SHAPE] is False
+    lo, hi = target_surroundings(scene, 0.1)
+    assert np.all(lo >= np.asarray(CAB.interior_min)) and np.all(hi <= np.asarray(CAB.interior_max))
