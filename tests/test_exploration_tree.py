@@ -106,3 +106,15 @@ def test_task_priors_lie_inside_the_space(setup):
     task = setup[0].task()
     p = task_priors(task, 0.06)
     assert p.shape == (7, 3) and np.all(task.space.contains(p))
+
+
+def test_tree_costs_equal_the_path_lengths(setup):
+    from compass_manip.exploration.mue_rrt import tree_costs
+    from compass_manip.exploration.utility import motion_cost
+
+    m = _method(setup)
+    w = m.world
+    tree = grow_tree(w, PandaIK(w.kin), w.frontiers, m.priors, np.array([-1.0, 0, 0]),
+                     TreeConfig(iterations=20), np.random.default_rng(5))
+    np.testing.assert_allclose(tree_costs(tree.q, tree.parent[: tree.count]),
+                               motion_cost([tree.path_to(k) for k in range(tree.count)]), atol=1e-12)

@@ -22,7 +22,7 @@ from ..errors import CompassInputError
 from ..mapping.infogain import info_gain_batch
 from ..motion.tree import JointTree
 from ..robot.model import Q_MAX, Q_MIN
-from .utility import heuristic, momentum, motion_cost, utility
+from .utility import heuristic, momentum, utility
 from .viewpoints import sample_direction_in_cone, view_configurations, view_pose
 
 
@@ -142,7 +142,7 @@ def score_tree(world, tree: JointTree, K: np.ndarray, t_prev: np.ndarray | None,
     D = momentum(t_prev, t[0], t) if t_prev is not None else np.zeros(len(Q))
     M = world.kin.manipulability_batch(Q)
     H = heuristic(T[:, :3, 2], t, points)
-    C = motion_cost([tree.path_to(k) for k in range(len(Q))])
+    C = tree_costs(Q, tree.parent[: len(Q)])
     U = utility(G, D, M, H, C, weights.as_tuple(), weights.cost_offset)
     U[0] = -np.inf
     U[G < config.min_gain] = -np.inf
@@ -150,6 +150,16 @@ def score_tree(world, tree: JointTree, K: np.ndarray, t_prev: np.ndarray | None,
     turned = np.arccos(np.clip(T[:, :3, 2] @ T[0, :3, 2], -1.0, 1.0))
     U[(moved < config.min_view_change) & (turned < config.min_view_change)] = -np.inf
     return ScoredTree(tree, T, G, D, M, H, C, U)
+
+
+def tree_costs(Q: np.ndarray, parent: np.ndarray) -> np.ndarray:
+    """C (N,) [rad]: joint path length from the root to every node along the tree (parents
+    precede their children), equal to `utility.motion_cost` of each `path_to(k)`."""
+    C = np.zeros(len(Q))
+    step = np.linalg.norm(Q - Q[np.maximum(parent, 0)], axis=1)
+    for k in range(1, len(Q)):
+        C[k] = C[parent[k]] + step[k]
+    return C
 
 
 def shortcut(path: np.ndarray, edge_valid) -> np.ndarray:
