@@ -49,7 +49,9 @@ class WorldModelConfig:
     space_margin [m], extended down to the floor) and more than floor_margin [m] above the
     floor count as free for motion, as the paper's planner treats all unknown space (inside
     the confined space, where the clutter is, unknown stays unsafe), except within
-    obstacle_halo [m] of a voxel seen occupied (an obstacle seen in part probably goes on)."""
+    obstacle_halo [m] of a voxel seen occupied (an obstacle seen in part probably goes on);
+    near_base_box ((min), (max)) [m] relative to the base: where unknown stays unsafe outside
+    the confined space too (None: nowhere)."""
 
     map: MapConfig = field(default_factory=default_map_config)
     max_range: float = 1.5
@@ -59,6 +61,7 @@ class WorldModelConfig:
     space_margin: float = 0.06
     floor_margin: float = 0.05
     obstacle_halo: float = 0.08
+    near_base_box: tuple[tuple[float, float, float], tuple[float, float, float]] | None = None
     sweep_step: float = 0.05
     validity: ValidityConfig = field(default_factory=lambda: ValidityConfig(margin=0.005, edge_resolution=0.02))
     frontiers: FrontierConfig = field(default_factory=lambda: FrontierConfig(min_cluster_size=4))
@@ -118,6 +121,11 @@ class WorldModel:
         self.assumed_free = np.zeros(self.occ.shape, bool)
         if task is not None and self.config.assume_free_outside_space:
             self.assumed_free = outside_space_mask(self.occ, task, self.config.space_margin, self.config.floor_margin)
+            if self.config.near_base_box is not None:
+                base = np.asarray(task.robot_base_pos, float)
+                lo, hi = base + np.asarray(self.config.near_base_box[0]), base + np.asarray(self.config.near_base_box[1])
+                c = self.occ.voxel_centers()
+                self.assumed_free &= ~np.all((c >= lo) & (c <= hi), axis=-1)
         self.add_swept(self.q[None], self.config.start_free_margin)
 
     def observe(self, obs: Observation) -> None:
