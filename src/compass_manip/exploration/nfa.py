@@ -24,7 +24,8 @@ WRIST = slice(4, 7)
 
 @dataclass(frozen=True)
 class NFAConfig:
-    """enabled; wrist_range [rad] of the wrist samples around the start posture; n_candidates wrist samples per step; min_gain [voxels] of unknown Omega_safe
+    """enabled; wrist_range [rad] of the wrist samples around the start posture; n_candidates
+    wrist samples per step; min_gain [voxels] of unknown Omega_safe
     volume below which the scan ends; max_views per scan; safe_box_min / safe_box_max [m]:
     Omega_safe relative to the robot base; rays (nu, nv) per candidate view; max_range [m]
     of the gain's rays; reach_tries: best candidates whose straight wrist motion is checked

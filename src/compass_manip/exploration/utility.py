@@ -22,7 +22,8 @@ import numpy as np
 
 def momentum(t_prev: np.ndarray, t_root: np.ndarray, t_x: np.ndarray) -> np.ndarray:
     """D (N,) [m^2] = (t_root - t_prev) . (t_x - t_root) for view positions t_x (N, 3)."""
-    return (np.asarray(t_x, float) - np.asarray(t_root, float)) @ (np.asarray(t_root, float) - np.asarray(t_prev, float))
+    t_root = np.asarray(t_root, float)
+    return (np.asarray(t_x, float) - t_root) @ (t_root - np.asarray(t_prev, float))
 
 
 def heuristic(view_axes: np.ndarray, t_v: np.ndarray, points: np.ndarray) -> np.ndarray:

@@ -123,7 +123,8 @@ class WorldModel:
             self.assumed_free = outside_space_mask(self.occ, task, self.config.space_margin, self.config.floor_margin)
             if self.config.near_base_box is not None:
                 base = np.asarray(task.robot_base_pos, float)
-                lo, hi = base + np.asarray(self.config.near_base_box[0]), base + np.asarray(self.config.near_base_box[1])
+                lo = base + np.asarray(self.config.near_base_box[0])
+                hi = base + np.asarray(self.config.near_base_box[1])
                 c = self.occ.voxel_centers()
                 self.assumed_free &= ~np.all((c >= lo) & (c <= hi), axis=-1)
         self.add_swept(self.q[None], self.config.start_free_margin)

@@ -39,7 +39,8 @@ class TrialSpec:
 def check_spec(spec: TrialSpec) -> TrialSpec:
     """Raise CompassInputError (one line naming what is allowed) on a bad spec."""
     if spec.method not in available_methods():
-        raise CompassInputError(f"method {spec.method!r} is not registered; use one of {', '.join(available_methods())}")
+        names = ", ".join(available_methods())
+        raise CompassInputError(f"method {spec.method!r} is not registered; use one of {names}")
     check_level(spec.level)
     for name in ("scene", "trial", "seed"):
         v = getattr(spec, name)
