@@ -42,6 +42,10 @@ def main() -> None:
         emit_value(f"trial.l{level}.false_detections", sum(r.true_detection is False for r in res), "trials", **ctx)
         sim_t = [x.outcome.t_end for x in runs]
         emit_rate(f"trial.l{level}.realtime_factor", [t / r.wall_s for t, r in zip(sim_t, res)], "x", **ctx)
+        emit_samples(f"explore.l{level}.nbv_ms", [v for x in runs for v in x.metrics.nbv_ms], "ms",
+                     what="frontiers + tree + utility + path check of one MUE-RRT decision", **ctx)
+        emit_samples(f"explore.l{level}.checker_rebuild_ms", [v for x in runs for v in x.metrics.checker_ms], "ms",
+                     what="distance field and validity checker on the updated map", **ctx)
         for phase in ("explore", "nfa"):
             ms = [1000 * s for x in runs for s, p in zip(x.metrics.decision_s, x.metrics.decision_phase) if p == phase]
             emit_samples(f"explore.l{level}.{phase}_decision_ms", ms, "ms", **ctx)

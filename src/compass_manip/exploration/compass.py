@@ -127,6 +127,9 @@ class CompassMethod:
 
     def _explore(self) -> Decision:
         cfg = self.config
+        t0 = time.perf_counter()
+        self.world.checker  # rebuild the distance field / validity checker on the new map
+        t1 = time.perf_counter()
         frontiers = self.world.frontiers
         points = self.points_of_interest
         outward = np.asarray(self.task.space.outward, float)
@@ -151,7 +154,8 @@ class CompassMethod:
                 if np.isfinite(scored.U).any():
                     gain_scope = "all"
                     break
-        stats = {"tree_nodes": int(scored.tree.count), "frontiers": len(frontiers), "gain_scope": gain_scope}
+        stats = {"tree_nodes": int(scored.tree.count), "frontiers": len(frontiers), "gain_scope": gain_scope,
+                 "checker_ms": 1000 * (t1 - t0), "nbv_ms": 1000 * (time.perf_counter() - t1)}
         if not np.isfinite(scored.U).any():
             stop = StopReason.EXPLORED if not frontiers else StopReason.NO_REACHABLE_VIEW
             return Decision(None, stop, Phase.EXPLORE, stats=stats)

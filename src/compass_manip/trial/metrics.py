@@ -19,6 +19,8 @@ class MetricsRecorder:
         self.plans_succeeded = 0
         self.decision_s: list[float] = []
         self.decision_phase: list[str] = []
+        self.nbv_ms: list[float] = []  # frontiers + tree + utility of EXPLORE decisions [ms]
+        self.checker_ms: list[float] = []  # map -> distance field -> checker rebuild [ms]
         self.decisions = 0
         self.collisions = 0
         self.explored: list[tuple[float, float]] = []
@@ -34,6 +36,9 @@ class MetricsRecorder:
         self.plans_succeeded += d.plans_succeeded
         self.decision_s.append(d.compute_s)
         self.decision_phase.append(d.phase.value)
+        if "nbv_ms" in d.stats:
+            self.nbv_ms.append(float(d.stats["nbv_ms"]))
+            self.checker_ms.append(float(d.stats["checker_ms"]))
 
     def motion(self, traj: Trajectory, t0: float, t_end: float) -> None:
         """An executed trajectory started at t0 [s] (relative times in traj.t), up to t_end."""
