@@ -17,6 +17,7 @@ SUBCOMMANDS = {
     "scenes": "scenes",
     "demo": "demo",
     "mbm": "mbm",
+    "run": "run",
     "bench": "bench",
     "report": "report",
 }

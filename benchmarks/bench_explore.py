@@ -1,0 +1,55 @@
+"""Exploration benchmark: COMPASS trials on Level 1 and Level 4 scenes.
+
+Prints JSON lines (bench/stats.py): find rate, MPSR, TFT, PFT, decision compute time (NBV
+decisions of the MUE-RRT phase and NFA steps separately), real-time factor (simulated
+seconds per wall second, one trial per process on one core), collisions and false
+detections. Scenes 0..N-1 of each level, trial 0, seed 0; N from COMPASS_BENCH_SCENES
+(default 5). Run: `.venv/bin/python benchmarks/bench_explore.py`.
+"""
+from __future__ import annotations
+
+import os
+import sys
+
+os.environ.setdefault("MUJOCO_GL", "egl")
+
+import numpy as np
+
+from compass_manip.bench.stats import emit_rate, emit_samples, emit_value, load_average
+from compass_manip.trial.runner import TrialSpec, run_trial_full
+
+
+def main() -> None:
+    n = int(os.environ.get("COMPASS_BENCH_SCENES", "5"))
+    for level in (1, 4):
+        runs = []
+        for scene in range(n):
+            run = run_trial_full(TrialSpec("compass", level, scene))
+            r = run.result
+            print(f"[explore] level {level} scene {scene}: {r.failure.name if r.failure else 'found'} "
+                  f"tft {r.tft_s:.1f} s, {r.decisions} decisions, wall {r.wall_s:.1f} s", file=sys.stderr)
+            runs.append(run)
+        res = [x.result for x in runs]
+        ctx = {"level": level, "scenes": n, "load": load_average()}
+        found = [r.success for r in res]
+        emit_value(f"trial.l{level}.find_rate", float(np.mean(found)), "fraction", n=len(res), **ctx)
+        att = sum(x.metrics.plans_attempted for x in runs)
+        ok = sum(x.metrics.plans_succeeded for x in runs)
+        emit_value(f"trial.l{level}.mpsr", ok / att if att else float("nan"), "fraction", n=att, **ctx)
+        emit_samples(f"trial.l{level}.tft_s", [r.tft_s for r in res], "s", **ctx)
+        emit_samples(f"trial.l{level}.pft_m", [r.pft_m for r in res], "m", **ctx)
+        emit_value(f"trial.l{level}.collisions", sum(r.collisions for r in res), "contacts", **ctx)
+        emit_value(f"trial.l{level}.false_detections", sum(r.true_detection is False for r in res), "trials", **ctx)
+        sim_t = [x.outcome.t_end for x in runs]
+        emit_rate(f"trial.l{level}.realtime_factor", [t / r.wall_s for t, r in zip(sim_t, res)], "x", **ctx)
+        emit_samples(f"explore.l{level}.nbv_ms", [v for x in runs for v in x.metrics.nbv_ms], "ms",
+                     what="frontiers + tree + utility + path check of one MUE-RRT decision", **ctx)
+        emit_samples(f"explore.l{level}.checker_rebuild_ms", [v for x in runs for v in x.metrics.checker_ms], "ms",
+                     what="distance field and validity checker on the updated map", **ctx)
+        for phase in ("explore", "nfa"):
+            ms = [1000 * s for x in runs for s, p in zip(x.metrics.decision_s, x.metrics.decision_phase) if p == phase]
+            emit_samples(f"explore.l{level}.{phase}_decision_ms", ms, "ms", **ctx)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,92 @@
+"""`compass run`: one trial of a registered method on a certified scene, with its metrics."""
+from __future__ import annotations
+
+import json
+import os
+import sys
+
+from ..errors import CompassInputError
+
+HELP = "run one trial of an exploration method and print its metrics"
+
+
+def add_arguments(p) -> None:
+    p.add_argument("--method", default="compass", help="registered method (default compass)")
+    p.add_argument("--level", type=int, required=True, help="difficulty level 1..4")
+    p.add_argument("--scene", type=int, required=True, help="scene index >= 0")
+    p.add_argument("--seed", type=int, default=0, help="base seed of the scene set (default 0)")
+    p.add_argument("--trial", type=int, default=0, help="trial index >= 0 (its own random stream)")
+    p.add_argument("--json", action="store_true", help="print one JSON object instead of a table")
+    p.add_argument("--time-limit", type=float, default=200.0, help="simulated time limit [s] (default 200)")
+    p.add_argument("--out", default=None, help="folder for result.json and the PNGs")
+
+
+def check_out(out: str | None) -> str | None:
+    """The output folder, created; one-line CompassInputError if it cannot be written."""
+    if out is None:
+        return None
+    if os.path.exists(out) and not os.path.isdir(out):
+        raise CompassInputError(f"--out {out!r} exists and is not a folder")
+    try:
+        os.makedirs(out, exist_ok=True)
+    except OSError as exc:
+        raise CompassInputError(f"--out {out!r} cannot be created: {exc.strerror}") from exc
+    if not os.access(out, os.W_OK):
+        raise CompassInputError(f"--out {out!r} is not writable")
+    return out
+
+
+def run(args) -> int:
+    from ..trial.runner import TrialSpec, check_spec
+
+    spec = check_spec(TrialSpec(args.method, args.level, args.scene, args.trial, args.seed))
+    if not 0 < args.time_limit <= 3600:
+        raise CompassInputError(f"--time-limit {args.time_limit} s is not allowed; use 0 < limit <= 3600 s")
+    out = check_out(args.out)
+    from ..trial.config import TrialConfig
+    from ..trial.runner import run_trial_full
+
+    config = TrialConfig(time_limit_s=args.time_limit)
+    print(f"compass run: {spec.method} on level {spec.level} scene {spec.scene} trial {spec.trial} seed {spec.seed}",
+          file=sys.stderr)
+    progress = (lambda line: print(f"\r  {line}", end="", file=sys.stderr, flush=True))
+    result_run = run_trial_full(spec, config, progress)
+    print("", file=sys.stderr)
+    record = result_run.result.to_dict()
+    if out is not None:
+        save_trial(result_run, config, out)
+    if args.json:
+        print(json.dumps(record))
+    else:
+        for k, v in record.items():
+            if k == "explored_curve":
+                v = f"{len(v)} points, final {v[-1][1] if v else None}"
+            print(f"{k:>20}: {v}")
+        if out is not None:
+            print(f"{'outputs':>20}: {os.path.abspath(out)}")
+    return 0
+
+
+def save_trial(result_run, config, out: str) -> dict:
+    """Write result.json, camera_path.png and explored.png; return their paths."""
+    from ..sim.world import World, render_overview
+    from ..trial.plots import save_camera_path_png, save_explored_png
+
+    r = result_run.result
+    paths = {k: os.path.join(out, n) for k, n in
+             (("json", "result.json"), ("camera_path", "camera_path.png"), ("explored", "explored.png"))}
+    with open(paths["json"], "w") as f:
+        json.dump({"result": r.to_dict(), "config": config.to_dict(), "scene": result_run.scene.to_dict(),
+                   "states": [s.value for s in result_run.outcome.states]}, f, indent=1)
+    world = World(result_run.scene)
+    try:
+        world.set_q(result_run.outcome.q_end)
+        overview = render_overview(world)
+    finally:
+        world.close()
+    title = (f"{r.method}, level {r.level} scene {r.scene} trial {r.trial}: "
+             f"{'found at %.1f s' % r.tft_s if r.success else r.failure.name.lower()}")
+    save_camera_path_png(result_run.scene, overview, result_run.outcome.camera_path, paths["camera_path"], title)
+    save_explored_png(r.explored_curve, paths["explored"], r.tft_s if r.success else None,
+                      config.time_limit_s)
+    return {k: os.path.abspath(v) for k, v in paths.items()}

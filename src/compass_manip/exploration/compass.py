@@ -1,0 +1,191 @@
+"""COMPASS exploration (paper Algorithm 1, lines 1-13): NFA scan, then MUE-RRT decisions.
+
+Points of interest P_h (the paper leaves them open; NOTES.md): from the Task, the confined
+space's centre and its four lower back corners and two upper ones (inset by `prior_inset`
+[m]); from the detector, the centroids of partial matches of the target query. When
+partial matches exist they replace the Task priors (they are the stronger evidence).
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..robot.ik import PandaIK
+from ..robot.model import RobotConfig
+from ..task import Task
+from ..types import Observation
+from .base import Decision, Phase, StopReason
+from .mue_rrt import TreeConfig, UtilityWeights, grow_tree, score_tree, shortcut
+from .nfa import NFAConfig, nfa_step, safe_box_map
+from .world_model import WorldModel, WorldModelConfig
+
+
+@dataclass(frozen=True)
+class CompassConfig:
+    """world: map and validity; nfa: the near-field scan; tree: MUE-RRT sampling; weights:
+    utility weights; verify_resolution [rad]: joint step of the final path check;
+    max_attempts: best nodes tried when a path fails re-validation; retry_iterations_factor:
+    a second, larger tree when the first has no node worth going to (before that, and
+    again after it, nodes are rescored with the gain of all unknown voxels when the
+    confined space offers none from the tree: seeing more of the surroundings frees space
+    to move in); prior_inset [m];
+    hint_memory: partial-match points kept (most recent)."""
+
+    world: WorldModelConfig = field(default_factory=WorldModelConfig)
+    nfa: NFAConfig = field(default_factory=NFAConfig)
+    tree: TreeConfig = field(default_factory=TreeConfig)
+    weights: UtilityWeights = field(default_factory=UtilityWeights)
+    verify_resolution: float = 0.005
+    max_attempts: int = 3
+    retry_iterations_factor: int = 3
+    prior_inset: float = 0.06
+    hint_memory: int = 20
+
+
+def task_priors(task: Task, inset: float) -> np.ndarray:
+    """Points of interest (7, 3) [m] from the confined space's outer geometry: its centre,
+    the four lower corners' back half and two upper back corners, inset from the walls."""
+    lo = np.asarray(task.space.interior_min, float) + inset
+    hi = np.asarray(task.space.interior_max, float) - inset
+    out = -np.asarray(task.space.outward, float)  # into the space
+    back = np.where(out > 0, hi, lo)  # far side along each axis the opening faces
+    c = (lo + hi) / 2
+    axis = int(np.argmax(np.abs(out)))
+    pts = [c]
+    for y in (lo[1], hi[1]):
+        for z in (lo[2], hi[2]):
+            p = np.array([0.0, y, z]) if axis == 0 else np.array([lo[0], y, z])
+            p[axis] = back[axis]
+            pts.append(p)
+    for y in (lo[1], hi[1]):
+        p = np.array([c[0], y, lo[2]])
+        pts.append(p)
+    return np.array(pts)
+
+
+class CompassMethod:
+    """The COMPASS exploration method (see the module docstring)."""
+
+    def __init__(self, task: Task, config: CompassConfig, rng: np.random.Generator, q_start: np.ndarray,
+                 K: np.ndarray, name: str = "compass", robot: RobotConfig | None = None) -> None:
+        self.name, self.task, self.config, self.rng = name, task, config, rng
+        self.robot = robot or RobotConfig(base_pos=task.robot_base_pos, base_yaw=task.robot_base_yaw)
+        self.world = WorldModel(q_start, config.world, self.robot, task)
+        self.ik = PandaIK(self.world.kin)
+        self.K = np.asarray(K, float)
+        self.q_body = np.asarray(q_start, float).copy()
+        self.priors = task_priors(task, config.prior_inset)
+        self.hints = np.zeros((0, 3))
+        self.t_prev: np.ndarray | None = None
+        self.nfa_views = 0
+        self.phase = Phase.NFA if config.nfa.enabled and config.nfa.max_views > 0 else Phase.EXPLORE
+        self._scratch = None
+        self._gain_map = None
+
+    # ---------------------------------------------------------------- inputs
+    @property
+    def occupancy(self):
+        return self.world.occ
+
+    def observe(self, obs: Observation) -> None:
+        self.world.observe(obs)
+
+    def add_points_of_interest(self, points_world: np.ndarray) -> None:
+        p = np.asarray(points_world, float).reshape(-1, 3)
+        if len(p):
+            self.hints = np.vstack([self.hints, p])[-self.config.hint_memory:]
+
+    def executed(self, path: np.ndarray) -> None:
+        self.world.add_swept(path)
+
+    @property
+    def points_of_interest(self) -> np.ndarray:
+        return self.hints if len(self.hints) else self.priors
+
+    # ---------------------------------------------------------------- decisions
+    def decide(self) -> Decision:
+        t0 = time.perf_counter()
+        if self.phase is Phase.NFA:
+            d = self._nfa()
+            if d is not None:
+                return _timed(d, t0)
+            self.phase = Phase.EXPLORE
+        return _timed(self._explore(), t0)
+
+    def _nfa(self) -> Decision | None:
+        cfg = self.config.nfa
+        if self.nfa_views >= cfg.max_views:
+            return None
+        path, gain, att, ok, self._scratch = nfa_step(self.world, self.q_body, np.asarray(self.task.robot_base_pos),
+                                                      cfg, self.K, self.rng, self._scratch)
+        if path is None:
+            return None
+        self.nfa_views += 1
+        return Decision(path, None, Phase.NFA, att, ok, stats={"gain": gain, "nfa_view": self.nfa_views})
+
+    def _explore(self) -> Decision:
+        cfg = self.config
+        t0 = time.perf_counter()
+        self.world.checker  # rebuild the distance field / validity checker on the new map
+        t1 = time.perf_counter()
+        frontiers = self.world.frontiers
+        points = self.points_of_interest
+        outward = np.asarray(self.task.space.outward, float)
+        attempted = succeeded = 0
+        scored = None
+        gain_map = None
+        if cfg.tree.gain_in_space:
+            m = cfg.tree.space_margin
+            self._gain_map = safe_box_map(self.world.occ, np.asarray(self.task.space.interior_min) - m,
+                                          np.asarray(self.task.space.interior_max) + m, self._gain_map)
+            gain_map = self._gain_map
+        gain_scope = "space" if gain_map is not None else "all"
+        for factor in (1, cfg.retry_iterations_factor):
+            tree_cfg = cfg.tree if factor == 1 else _scaled(cfg.tree, factor)
+            tree = grow_tree(self.world, self.ik, frontiers, points, outward, tree_cfg, self.rng,
+                             hinted=len(self.hints) > 0)
+            scored = score_tree(self.world, tree, self.K, self.t_prev, points, cfg.weights, tree_cfg, gain_map)
+            if np.isfinite(scored.U).any():
+                break
+            if gain_map is not None:  # nothing new inside the space from here: open up the near field
+                scored = score_tree(self.world, tree, self.K, self.t_prev, points, cfg.weights, tree_cfg)
+                if np.isfinite(scored.U).any():
+                    gain_scope = "all"
+                    break
+        stats = {"tree_nodes": int(scored.tree.count), "frontiers": len(frontiers), "gain_scope": gain_scope,
+                 "checker_ms": 1000 * (t1 - t0), "nbv_ms": 1000 * (time.perf_counter() - t1)}
+        if not np.isfinite(scored.U).any():
+            stop = StopReason.EXPLORED if not frontiers else StopReason.NO_REACHABLE_VIEW
+            return Decision(None, stop, Phase.EXPLORE, stats=stats)
+        checker = self.world.checker
+        order = np.argsort(-scored.U, kind="stable")
+        for k in order[: cfg.max_attempts]:
+            if not np.isfinite(scored.U[k]):
+                break
+            attempted += 1
+            raw = scored.tree.path_to(int(k))
+            path = shortcut(raw, lambda a, b: checker.edge_valid(a, b, cfg.verify_resolution))
+            if not checker.path_valid(path, cfg.verify_resolution):
+                path = raw if checker.path_valid(raw, cfg.verify_resolution) else None
+            if path is None:
+                continue
+            succeeded += 1
+            self.t_prev = scored.T_world_cam[0, :3, 3].copy()
+            stats.update(node=int(k), G=float(scored.G[k]), D=float(scored.D[k]), M=float(scored.M[k]),
+                         H=float(scored.H[k]), C=float(scored.C[k]), U=float(scored.U[k]))
+            return Decision(path, None, Phase.EXPLORE, attempted, succeeded, stats=stats)
+        return Decision(None, StopReason.PLANNING_FAILED, Phase.EXPLORE, attempted, succeeded, stats=stats)
+
+
+def _scaled(tree: TreeConfig, factor: int) -> TreeConfig:
+    from dataclasses import replace
+
+    return replace(tree, iterations=tree.iterations * factor, capacity=max(tree.capacity, tree.capacity * factor))
+
+
+def _timed(d: Decision, t0: float) -> Decision:
+    from dataclasses import replace
+
+    return replace(d, compute_s=time.perf_counter() - t0)

@@ -1,0 +1,104 @@
+"""Near-Field Awareness scan (paper Sec. III-B-1): body joints held, wrist joints sampled,
+greedy choice of the wrist configuration that sees the most still-unknown volume of a
+safety box Omega_safe around the base and arm, until the gain falls below a threshold.
+
+Our variant re-runs the greedy step on the map after each executed view (the paper
+computes all waypoints up front from the initial map and a virtual coverage update): the
+real observations replace the virtual update, and each move is validated on the map as it
+is then, so the wrist only enters space it has seen or occupied.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import CompassInputError
+from ..mapping.infogain import info_gain_batch
+from ..mapping.occupancy import OccupancyMap, VoxelState
+from ..robot.model import Q_MAX, Q_MIN
+
+#: Joints 5-7 (0-based 4..6) are the wrist; joints 1-4 the body.
+WRIST = slice(4, 7)
+
+
+@dataclass(frozen=True)
+class NFAConfig:
+    """enabled; wrist_range [rad] of the wrist samples around the start posture; n_candidates
+    wrist samples per step; min_gain [voxels] of unknown Omega_safe
+    volume below which the scan ends; max_views per scan; safe_box_min / safe_box_max [m]:
+    Omega_safe relative to the robot base; rays (nu, nv) per candidate view; max_range [m]
+    of the gain's rays; reach_tries: best candidates whose straight wrist motion is checked
+    per step (at edge_resolution [rad]; a straight joint segment keeps the step deterministic)"""
+
+    enabled: bool = True
+    wrist_range: float = 1.2
+    n_candidates: int = 160
+    min_gain: int = 40
+    max_views: int = 8
+    safe_box_min: tuple[float, float, float] = (-0.35, -0.6, 0.0)
+    safe_box_max: tuple[float, float, float] = (0.75, 0.6, 1.15)
+    rays: tuple[int, int] = (20, 15)
+    max_range: float = 1.0
+    reach_tries: int = 8
+    edge_resolution: float = 0.005
+
+    def __post_init__(self) -> None:
+        if self.n_candidates < 1 or self.max_views < 0 or self.min_gain < 0:
+            raise CompassInputError("NFAConfig needs n_candidates >= 1, max_views >= 0, min_gain >= 0")
+        if not np.all(np.asarray(self.safe_box_max) > np.asarray(self.safe_box_min)):
+            raise CompassInputError(f"safe_box_max {self.safe_box_max} must exceed safe_box_min {self.safe_box_min}")
+
+
+def wrist_candidates(q_body: np.ndarray, n: int, rng: np.random.Generator, wrist_range: float = np.inf
+                     ) -> np.ndarray:
+    """n configurations (n, 7) [rad]: joints 1-4 from q_body, joints 5-7 uniform within
+    +-wrist_range [rad] of q_body's (and within their limits)."""
+    q = np.asarray(q_body, float)
+    Q = np.repeat(q[None], n, axis=0)
+    lo = np.maximum(Q_MIN[WRIST], q[WRIST] - wrist_range)
+    hi = np.minimum(Q_MAX[WRIST], q[WRIST] + wrist_range)
+    Q[:, WRIST] = rng.uniform(lo, hi, (n, 3))
+    return Q
+
+
+def safe_box_map(occ: OccupancyMap, box_min: np.ndarray, box_max: np.ndarray, out: OccupancyMap | None = None
+                 ) -> OccupancyMap:
+    """A map whose unknown voxels are those of occ inside the world box (others FREE), so
+    that information gain counts only the unknown volume of Omega_safe."""
+    out = out if out is not None else OccupancyMap(occ.config)
+    lo = np.clip(occ.world_to_voxel(np.asarray(box_min)[None])[0], 0, np.asarray(occ.shape))
+    hi = np.clip(occ.world_to_voxel(np.asarray(box_max)[None])[0] + 1, 0, np.asarray(occ.shape))
+    out.state[...] = VoxelState.FREE
+    sl = tuple(slice(a, b) for a, b in zip(lo, hi))
+    out.state[sl] = occ.state[sl]
+    return out
+
+
+def nfa_step(world, q_body: np.ndarray, base_pos: np.ndarray, config: NFAConfig, K: np.ndarray,
+             rng: np.random.Generator, scratch: OccupancyMap | None = None):
+    """One greedy NFA step on the world model's current map.
+
+    Returns (path (m, 7) or None, best gain [voxels], plans attempted, plans succeeded,
+    scratch map for reuse). None when no valid, reachable candidate gains >= min_gain.
+    """
+    checker = world.checker
+    Q = wrist_candidates(q_body, config.n_candidates, rng, config.wrist_range)
+    Q = Q[checker.are_valid(Q)]
+    if len(Q) == 0:
+        return None, 0, 0, 0, scratch
+    base = np.asarray(base_pos, float)
+    scratch = safe_box_map(world.occ, base + config.safe_box_min, base + config.safe_box_max, scratch)
+    T = world.kin.T_world_cam_batch(Q)
+    gains = info_gain_batch(scratch, T, K, config.max_range, config.rays)
+    order = np.argsort(-gains, kind="stable")
+    attempted = succeeded = 0
+    q_now = world.q
+    for i in order[: config.reach_tries]:
+        if gains[i] < config.min_gain:
+            break
+        attempted += 1
+        if checker.edge_valid(q_now, Q[i], config.edge_resolution):
+            succeeded += 1
+            return np.stack([q_now, Q[i]]), int(gains[i]), attempted, succeeded, scratch
+    return None, int(gains[order[0]]), attempted, succeeded, scratch

@@ -1,0 +1,139 @@
+"""Asynchronous detection on a sliding buffer of observations (the paper's B_t).
+
+`DetectionBuffer.push(obs)` only enqueues (RGB, depth, camera pose, time) and returns at
+once; a worker thread runs the detector on each observation in order, so detection never
+stalls motion. The buffer keeps the detections of the last `size` observations (a sliding
+window). `best()` returns, among the window's ACCEPTED detections, the one whose box centre
+is nearest the image centre (the paper's S_obs = -||p_bbox - p_center||); ties go to the
+later observation. `sync()` waits until every pushed observation has been processed: the
+trial calls it at decision points so that runs are reproducible while detection still runs
+concurrently with the motion, mapping and decisions in between.
+"""
+from __future__ import annotations
+
+import queue
+import threading
+import time
+from collections import deque
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import CompassInputError
+from ..task import TargetQuery
+from ..types import Observation
+from .detector import Detection, Detector, Verdict
+
+
+@dataclass(frozen=True)
+class BufferConfig:
+    """size: observations in the sliding window (k + 1 in the paper); threaded: run the
+    detector on a worker thread (False: in push, for debugging)."""
+
+    size: int = 8
+    threaded: bool = True
+
+    def __post_init__(self) -> None:
+        if not 1 <= self.size <= 1000:
+            raise CompassInputError(f"buffer size {self.size} is not allowed; use 1..1000")
+
+
+@dataclass(frozen=True, eq=False)
+class BufferedDetection:
+    """An accepted detection with the observation it came from."""
+
+    detection: Detection
+    observation: Observation
+
+
+def most_centred(entries: list[BufferedDetection]) -> BufferedDetection | None:
+    """The entry whose detection box centre is nearest its image centre (later wins ties)."""
+    best, best_d = None, np.inf
+    for e in entries:
+        H, W = e.observation.depth.shape
+        d = e.detection.centre_offset((W, H))
+        if d <= best_d:
+            best, best_d = e, d
+    return best
+
+
+class DetectionBuffer:
+    """Sliding window of observations and their detections, filled by a worker thread."""
+
+    def __init__(self, detector: Detector, query: TargetQuery, config: BufferConfig | None = None) -> None:
+        self.detector, self.query = detector, query
+        self.config = config or BufferConfig()
+        self._window: deque[tuple[Observation, tuple[Detection, ...]]] = deque(maxlen=self.config.size)
+        self._lock = threading.Lock()
+        self._queue: queue.Queue = queue.Queue()
+        self._hints: list[np.ndarray] = []
+        self._error: BaseException | None = None
+        self.compute_s: list[float] = []  # detector time per observation [s]
+        self.n_processed = 0
+        self._thread = None
+        if self.config.threaded:
+            self._thread = threading.Thread(target=self._work, name="detection", daemon=True)
+            self._thread.start()
+
+    # ---------------------------------------------------------------- producer side
+    def push(self, obs: Observation) -> None:
+        """Enqueue an observation (needs rgb for appearance detectors); never blocks."""
+        if self._thread is None:
+            self._process(obs)
+        else:
+            self._queue.put(obs)
+
+    def sync(self, timeout: float = 60.0) -> None:
+        """Wait until all pushed observations are processed; re-raise a worker error."""
+        if self._thread is not None:
+            deadline = time.monotonic() + timeout
+            while self._queue.unfinished_tasks and time.monotonic() < deadline:
+                time.sleep(0.0005)
+            if self._queue.unfinished_tasks:
+                raise TimeoutError("detection worker did not finish within the timeout")
+        if self._error is not None:
+            raise self._error
+
+    def close(self) -> None:
+        if self._thread is not None:
+            self._queue.put(None)
+            self._thread.join(timeout=5.0)
+            self._thread = None
+
+    # ---------------------------------------------------------------- consumer side
+    def best(self) -> BufferedDetection | None:
+        """The most centred ACCEPTED detection in the window, or None."""
+        with self._lock:
+            entries = [BufferedDetection(d, o) for o, dets in self._window for d in dets if d.accepted]
+        return most_centred(entries)
+
+    def take_hints(self) -> np.ndarray:
+        """Centroids (N, 3) [m] of PARTIAL detections since the last call (low-confidence
+        matches of the query: points of interest for exploration)."""
+        with self._lock:
+            h, self._hints = self._hints, []
+        return np.array(h).reshape(-1, 3)
+
+    # ---------------------------------------------------------------- worker
+    def _work(self) -> None:
+        while True:
+            obs = self._queue.get()
+            try:
+                if obs is None:
+                    return
+                if self._error is None:
+                    self._process(obs)
+            except BaseException as exc:  # surfaced by sync()
+                self._error = exc
+            finally:
+                self._queue.task_done()
+
+    def _process(self, obs: Observation) -> None:
+        t0 = time.perf_counter()
+        dets = tuple(self.detector(obs, self.query))
+        dt = time.perf_counter() - t0
+        with self._lock:
+            self._window.append((obs, dets))
+            self._hints.extend(d.centroid_world for d in dets if d.verdict is Verdict.PARTIAL)
+            self.compute_s.append(dt)
+            self.n_processed += 1

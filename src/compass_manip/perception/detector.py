@@ -1,0 +1,297 @@
+"""Target detection from RGB + depth + camera pose, against a `TargetQuery`.
+
+`AppearanceDetector` finds image regions of the query's colour, back-projects them with
+depth, and checks the region's 3D shape class (planar faces for boxes, a curved side for
+round objects, doubly curved surface for spheres) and its size against the query. It never
+sees simulator labels. Every region of the right colour is reported as a `Detection` with
+a `Verdict`: ACCEPTED regions may end exploration; PARTIAL ones (too little of the object
+visible to judge) become points of interest for the exploration; the others are rejected
+distractors.
+
+Plug-in point for a learned open-vocabulary detector (e.g. YOLO-World, where weights
+exist): implement `BoxModel` (RGB image + the query's text -> 2D boxes and scores) and wrap
+it in `BoxModelDetector`, which turns boxes into `Detection`s with depth; register the
+factory in `DETECTORS`. Anything with `__call__(obs, query) -> tuple[Detection, ...]` is a
+detector.
+"""
+from __future__ import annotations
+
+import enum
+import math
+from dataclasses import dataclass
+from typing import Callable, Protocol
+
+import numpy as np
+from scipy import ndimage
+
+from ..errors import CompassInputError
+from ..task import COLOURS, TargetQuery
+from ..types import Observation
+from .target import backproject_image, surface_normals, upright_extents
+
+#: Shape classes of a TargetQuery grouped by the surface a depth camera sees.
+SHAPE_FAMILY = {"box": "box", "book": "box", "cereal_box": "box", "cylinder": "round", "can": "round",
+                "bottle": "round", "mug": "round", "bowl": "round", "sphere": "sphere"}
+_ACHROMATIC = ("white", "grey")
+
+
+class Verdict(enum.Enum):
+    ACCEPTED = "accepted"
+    PARTIAL = "partial"  # right colour, nothing contradicts the query, too little seen
+    WRONG_SHAPE = "wrong shape"
+    WRONG_SIZE = "wrong size"
+
+
+@dataclass(frozen=True)
+class DetectorConfig:
+    """colour_max_angle_deg: largest angle between a pixel's RGB vector and the query
+    colour's (shading scales RGB, so the direction carries the colour); min_value: darkest
+    pixel considered (max channel in [0, 1]); min_pixels: smallest region; max_depth [m];
+    planar_fraction_box / planar_fraction_round: fraction of side normals within
+    `mode_halfwidth_deg` of the two dominant horizontal directions above which a region is a
+    box, below which it is round; sphere_slant_fraction: fraction of slanted normals above
+    which it is a sphere; min_side_pixels for a shape verdict; size_tolerance: measured
+    extents may exceed the query's by this fraction (+ size_slack [m]); min_completeness:
+    visible height and width over the query's needed to accept; border_px: regions touching
+    the image border are partial unless at least border_completeness of the object shows."""
+
+    colour_max_angle_deg: float = 10.0
+    min_value: float = 0.12
+    min_pixels: int = 40
+    max_depth: float = 1.6
+    planar_fraction_box: float = 0.8
+    planar_fraction_round: float = 0.6
+    mode_halfwidth_deg: float = 7.0
+    sphere_slant_fraction: float = 0.35
+    min_side_pixels: int = 30
+    size_tolerance: float = 0.2
+    size_slack: float = 0.01
+    min_completeness: float = 0.6
+    border_px: int = 2
+    border_completeness: float = 0.75
+    max_points: int = 3000
+
+    def __post_init__(self) -> None:
+        if not 0 < self.colour_max_angle_deg < 45:
+            raise CompassInputError(f"colour_max_angle_deg {self.colour_max_angle_deg} must be in (0, 45)")
+        if not 0 < self.min_completeness <= 1:
+            raise CompassInputError(f"min_completeness {self.min_completeness} must be in (0, 1]")
+        if self.min_pixels < 1:
+            raise CompassInputError(f"min_pixels {self.min_pixels} must be >= 1")
+
+
+@dataclass(frozen=True, eq=False)
+class Detection:
+    """One image region of the query's colour.
+
+    t [s] and T_world_cam of its image; bbox (u0, v0, u1, v1) [px] inclusive; centre_px
+    (u, v) of the box; n_pixels; points_world (N, 3) [m] (subsampled); centroid_world (3,);
+    extents (major horizontal, minor horizontal, vertical) [m]; shape: 'box' | 'round' |
+    'sphere' | 'unknown' as seen; score in [0, 1] (completeness of the view); verdict.
+    """
+
+    t: float
+    T_world_cam: np.ndarray
+    bbox: tuple[int, int, int, int]
+    centre_px: tuple[float, float]
+    n_pixels: int
+    points_world: np.ndarray
+    centroid_world: np.ndarray
+    extents: tuple[float, float, float]
+    shape: str
+    score: float
+    verdict: Verdict
+
+    @property
+    def accepted(self) -> bool:
+        return self.verdict is Verdict.ACCEPTED
+
+    def centre_offset(self, image_size: tuple[int, int]) -> float:
+        """Distance [px] from the box centre to the image centre; image_size (W, H)."""
+        W, H = image_size
+        return float(math.hypot(self.centre_px[0] - (W - 1) / 2, self.centre_px[1] - (H - 1) / 2))
+
+
+class Detector(Protocol):
+    def __call__(self, obs: Observation, query: TargetQuery) -> tuple[Detection, ...]: ...
+
+
+def colour_mask(rgb: np.ndarray, colour: str, config: DetectorConfig) -> np.ndarray:
+    """(H, W) bool: pixels whose RGB direction is nearest the named colour's among
+    `task.COLOURS` and within `colour_max_angle_deg` of it (white and grey, which differ
+    only in brightness, are told apart by brightness relative to the image's brightest
+    achromatic pixels)."""
+    if colour not in COLOURS:
+        raise CompassInputError(f"colour {colour!r} is not one of {tuple(COLOURS)}")
+    x = np.asarray(rgb, dtype=np.float32)[..., :3] / 255.0
+    val = x.max(axis=-1)
+    norm = np.linalg.norm(x, axis=-1) + 1e-9
+    names = list(COLOURS)
+    refs = np.array([COLOURS[n] for n in names], dtype=np.float32)
+    refs /= np.linalg.norm(refs, axis=1, keepdims=True)
+    cos = np.einsum("hwc,kc->hwk", x, refs) / norm[..., None]
+    if colour in _ACHROMATIC:  # one achromatic class for the direction test
+        cos[..., names.index("grey")] = np.maximum(cos[..., names.index("grey")], cos[..., names.index("white")])
+        cos[..., names.index("white")] = cos[..., names.index("grey")]
+    k = names.index(colour)
+    nearest = cos.argmax(axis=-1)
+    same = (nearest == k) | ((colour in _ACHROMATIC) & np.isin(nearest, [names.index(c) for c in _ACHROMATIC]))
+    ang_ok = cos[..., k] >= math.cos(math.radians(config.colour_max_angle_deg))
+    mask = same & ang_ok & (val >= config.min_value)
+    if colour in _ACHROMATIC and mask.any():
+        bright = np.percentile(val[mask], 95)
+        rel = val / max(bright, 1e-6)
+        mask &= (rel >= 0.8) if colour == "white" else (rel < 0.8)
+    return mask
+
+
+def classify_shape(normals: np.ndarray, points: np.ndarray, cam_pos: np.ndarray,
+                   config: DetectorConfig) -> str:
+    """'box' | 'round' | 'sphere' | 'unknown' from world normals (N, 3) of a region's
+    pixels and their points (N, 3) [m] seen from cam_pos (3,) [m]."""
+    if len(normals) < config.min_side_pixels:
+        return "unknown"
+    n = normals * np.sign(np.sum(normals * (cam_pos - points), axis=1))[:, None]  # towards the camera
+    nz = np.abs(n[:, 2])
+    side = nz < 0.3
+    slant = (nz >= 0.3) & (nz <= 0.9)
+    if slant.mean() >= config.sphere_slant_fraction:
+        return "sphere"
+    if side.sum() < config.min_side_pixels:
+        return "unknown"
+    theta = np.degrees(np.arctan2(n[side, 1], n[side, 0]))
+    frac = _two_mode_fraction(theta, config.mode_halfwidth_deg)
+    if frac >= config.planar_fraction_box:
+        return "box"
+    if frac < config.planar_fraction_round:
+        return "round"
+    return "unknown"
+
+
+def _two_mode_fraction(theta_deg: np.ndarray, halfwidth: float) -> float:
+    """Fraction of angles [deg] within +-halfwidth of the best two (circular) modes."""
+    hist = np.bincount(np.floor((theta_deg + 180.0) % 360.0).astype(int), minlength=360)[:360]
+    w = int(round(halfwidth))
+    kernel = np.ones(2 * w + 1)
+    win = np.convolve(np.concatenate([hist[-w:], hist, hist[:w]]), kernel, mode="valid")
+    i1 = int(np.argmax(win))
+    total = win[i1]
+    h2 = hist.copy()
+    idx = (np.arange(i1 - w, i1 + w + 1)) % 360
+    h2[idx] = 0
+    win2 = np.convolve(np.concatenate([h2[-w:], h2, h2[:w]]), kernel, mode="valid")
+    total += win2.max()
+    return float(total / max(len(theta_deg), 1))
+
+
+class AppearanceDetector:
+    """Colour + 3D shape class + size detector (see the module docstring)."""
+
+    def __init__(self, config: DetectorConfig | None = None) -> None:
+        self.config = config or DetectorConfig()
+
+    def __call__(self, obs: Observation, query: TargetQuery) -> tuple[Detection, ...]:
+        if obs.rgb is None:
+            raise CompassInputError("AppearanceDetector needs an RGB image; the observation has none")
+        cfg = self.config
+        depth = np.asarray(obs.depth, dtype=np.float32)
+        mask = colour_mask(obs.rgb, query.colour, cfg)
+        mask &= np.isfinite(depth) & (depth > 0) & (depth <= cfg.max_depth)
+        if mask.sum() < cfg.min_pixels:
+            return ()
+        labels, n = ndimage.label(mask, structure=np.ones((3, 3), bool))
+        sizes = np.bincount(labels.ravel(), minlength=n + 1)
+        keep = [k for k in range(1, n + 1) if sizes[k] >= cfg.min_pixels]
+        if not keep:
+            return ()
+        pts, _ = backproject_image(depth, obs.K, obs.T_world_cam)
+        nrm, nok = surface_normals(pts)
+        slices = ndimage.find_objects(labels)
+        out = [self._region(obs, labels, k, slices[k - 1], pts, nrm, nok, query) for k in keep]
+        return tuple(out)
+
+    def _region(self, obs, labels, k, sl, pts, nrm, nok, query) -> Detection:
+        cfg = self.config
+        H, W = labels.shape
+        sub = labels[sl] == k
+        rows, cols = np.nonzero(sub)
+        rows, cols = rows + sl[0].start, cols + sl[1].start
+        P = pts[rows, cols]
+        inner = ndimage.binary_erosion(sub, iterations=2)
+        ir, ic = np.nonzero(inner & nok[sl])
+        ir, ic = ir + sl[0].start, ic + sl[1].start
+        shape = classify_shape(nrm[ir, ic], pts[ir, ic], obs.T_world_cam[:3, 3], cfg)
+        ext = upright_extents(P)
+        a, b, c = (float(v) for v in query.size)
+        tol = 1.0 + cfg.size_tolerance
+        too_big = ext[2] > c * tol + cfg.size_slack or ext[0] > math.hypot(a, b) * tol + cfg.size_slack
+        completeness = min(1.0, ext[2] / c, ext[0] / b)
+        u0, u1, v0, v1 = int(cols.min()), int(cols.max()), int(rows.min()), int(rows.max())
+        at_border = (u0 < cfg.border_px or v0 < cfg.border_px or u1 >= W - cfg.border_px
+                     or v1 >= H - cfg.border_px)
+        family = SHAPE_FAMILY[query.shape]
+        if too_big:
+            verdict = Verdict.WRONG_SIZE
+        elif shape not in ("unknown", family):
+            verdict = Verdict.WRONG_SHAPE
+        elif shape == family and completeness >= (cfg.border_completeness if at_border else cfg.min_completeness):
+            verdict = Verdict.ACCEPTED
+        else:
+            verdict = Verdict.PARTIAL
+        if len(P) > cfg.max_points:
+            P = P[np.linspace(0, len(P) - 1, cfg.max_points).astype(int)]
+        return Detection(
+            t=float(obs.t), T_world_cam=np.asarray(obs.T_world_cam), bbox=(u0, v0, u1, v1),
+            centre_px=((u0 + u1) / 2, (v0 + v1) / 2), n_pixels=int(len(rows)), points_world=P,
+            centroid_world=P.mean(axis=0), extents=ext, shape=shape, score=float(completeness), verdict=verdict,
+        )
+
+
+class BoxModel(Protocol):
+    """A learned open-vocabulary detector: (H, W, 3) uint8 RGB and a text prompt ->
+    boxes (N, 4) [px] as (u0, v0, u1, v1) and scores (N,) in [0, 1]."""
+
+    def __call__(self, rgb: np.ndarray, text: str) -> tuple[np.ndarray, np.ndarray]: ...
+
+
+class BoxModelDetector:
+    """Adapter from a `BoxModel` to `Detection`s: the box's depth pixels nearest the camera
+    (within `depth_band` [m] of the box's 20th depth percentile) are the object's points;
+    boxes scoring >= accept_score are ACCEPTED, those >= hint_score PARTIAL."""
+
+    def __init__(self, model: BoxModel, accept_score: float = 0.5, hint_score: float = 0.2,
+                 depth_band: float = 0.05) -> None:
+        self.model, self.accept_score, self.hint_score, self.depth_band = model, accept_score, hint_score, depth_band
+
+    def __call__(self, obs: Observation, query: TargetQuery) -> tuple[Detection, ...]:
+        boxes, scores = self.model(obs.rgb, query.text)
+        pts, valid = backproject_image(obs.depth, obs.K, obs.T_world_cam)
+        H, W = obs.depth.shape
+        out = []
+        for (u0, v0, u1, v1), s in zip(np.asarray(boxes, dtype=float).reshape(-1, 4), np.asarray(scores, float)):
+            if s < self.hint_score:
+                continue
+            u0, v0 = max(0, int(u0)), max(0, int(v0))
+            u1, v1 = min(W - 1, int(u1)), min(H - 1, int(v1))
+            if u1 < u0 or v1 < v0:
+                continue
+            d = np.asarray(obs.depth[v0:v1 + 1, u0:u1 + 1], float)
+            ok = valid[v0:v1 + 1, u0:u1 + 1]
+            if not ok.any():
+                continue
+            near = ok & (d <= np.percentile(d[ok], 20) + self.depth_band)
+            P = pts[v0:v1 + 1, u0:u1 + 1][near]
+            out.append(Detection(
+                t=float(obs.t), T_world_cam=np.asarray(obs.T_world_cam), bbox=(u0, v0, u1, v1),
+                centre_px=((u0 + u1) / 2, (v0 + v1) / 2), n_pixels=int(near.sum()), points_world=P,
+                centroid_world=P.mean(axis=0), extents=upright_extents(P), shape="unknown", score=float(s),
+                verdict=Verdict.ACCEPTED if s >= self.accept_score else Verdict.PARTIAL,
+            ))
+        return tuple(out)
+
+
+#: Detector factories by name (config -> detector). The oracle detector used for
+#: ablations lives in `sim.oracle` and is wired in by the trial runner, never here.
+DETECTORS: dict[str, Callable[[DetectorConfig], Detector]] = {
+    "appearance": lambda config: AppearanceDetector(config),
+}

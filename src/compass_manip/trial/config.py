@@ -1,0 +1,78 @@
+"""The root config of a trial: every component's frozen config in one record, saved with
+each result (`TrialConfig.to_dict()` is JSON-able)."""
+from __future__ import annotations
+
+import enum
+from dataclasses import dataclass, field, fields, is_dataclass
+
+from ..errors import CompassInputError
+from ..exploration.compass import CompassConfig
+from ..motion.timing import TimingConfig
+from ..perception.buffer import BufferConfig
+from ..perception.detector import DETECTORS, DetectorConfig
+
+#: Detector kinds a trial may use: the registered image detectors plus the oracle.
+ORACLE_DETECTOR = "oracle-segmentation"
+
+
+@dataclass(frozen=True)
+class ClockConfig:
+    """The simulated clock: each decision costs `planning_charge_s` [s] (fixed: the same seed
+    gives a bit-identical trial), or its measured compute time when `measured` is True."""
+
+    planning_charge_s: float = 0.1
+    measured: bool = False
+
+    def __post_init__(self) -> None:
+        if not 0.0 <= self.planning_charge_s <= 60.0:
+            raise CompassInputError(f"planning_charge_s {self.planning_charge_s} must be in 0..60 s")
+
+
+@dataclass(frozen=True)
+class SensingConfig:
+    """frame_rate [Hz] of camera frames along every trajectory (each also rendered at the
+    end of a motion); check_step [rad] of the ground-truth contact checks."""
+
+    frame_rate: float = 3.0
+    check_step: float = 0.005
+
+
+@dataclass(frozen=True)
+class TrialConfig:
+    """method: the exploration config shared by all registered methods; detector /
+    detector_kind: the image detector ('appearance', or the oracle 'oracle-segmentation'
+    for ablations); buffer: the detection window; clock; sensing; timing: trajectory
+    limits (Panda datasheet, scaled); time_limit_s [s]; surroundings_margin [m] of the
+    target region whose explored fraction is recorded."""
+
+    method: CompassConfig = field(default_factory=CompassConfig)
+    detector: DetectorConfig = field(default_factory=DetectorConfig)
+    detector_kind: str = "appearance"
+    buffer: BufferConfig = field(default_factory=BufferConfig)
+    clock: ClockConfig = field(default_factory=ClockConfig)
+    sensing: SensingConfig = field(default_factory=SensingConfig)
+    timing: TimingConfig = field(default_factory=lambda: TimingConfig(velocity_scale=0.5, acceleration_scale=0.5))
+    time_limit_s: float = 200.0
+    surroundings_margin: float = 0.1
+
+    def __post_init__(self) -> None:
+        kinds = (*DETECTORS, ORACLE_DETECTOR)
+        if self.detector_kind not in kinds:
+            raise CompassInputError(f"detector_kind {self.detector_kind!r} is not one of {kinds}")
+        if not 0 < self.time_limit_s <= 3600:
+            raise CompassInputError(f"time_limit_s {self.time_limit_s} must be in (0, 3600] s")
+
+    def to_dict(self) -> dict:
+        return _jsonable(self)
+
+
+def _jsonable(x):
+    if is_dataclass(x):
+        return {f.name: _jsonable(getattr(x, f.name)) for f in fields(x)}
+    if isinstance(x, enum.Enum):
+        return x.name
+    if isinstance(x, (tuple, list)):
+        return [_jsonable(v) for v in x]
+    if isinstance(x, dict):
+        return {str(k): _jsonable(v) for k, v in x.items()}
+    return x

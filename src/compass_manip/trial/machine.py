@@ -1,0 +1,129 @@
+"""The trial state machine: NFA -> EXPLORE (sense, integrate, detect, decide, move) ->
+FOUND -> DONE, or a failure named by its reason. (GRASP will sit between FOUND and DONE.)
+
+The simulated clock advances by each trajectory's duration (Panda limits, `motion.timing`)
+plus a charge per decision (fixed by default, so the same seed gives a bit-identical
+trial; the measured compute time as an option). Camera frames along every trajectory and
+one at the end of each motion feed the method's map and the detection buffer. Detection
+runs on its own thread while the arm moves, the map integrates and the method decides; the
+machine waits for it only at decision points, where it reads the buffer's most-centred
+accepted detection (and hands partial matches to the method as points of interest).
+The target counts as found at the time stamp of the frame holding that detection.
+"""
+from __future__ import annotations
+
+import enum
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..exploration.base import Phase, StopReason
+from ..motion.timing import time_parameterize
+from ..sim.executor import ExecutorConfig, execute
+from .result import TrialFailure
+
+_STOP_TO_FAILURE = {
+    StopReason.NO_REACHABLE_VIEW: TrialFailure.NO_REACHABLE_VIEW,
+    StopReason.PLANNING_FAILED: TrialFailure.PLANNING_FAILED,
+    StopReason.EXPLORED: TrialFailure.TARGET_NOT_FOUND,
+}
+
+
+class TrialState(enum.Enum):
+    NFA = "nfa"
+    EXPLORE = "explore"
+    FOUND = "found"
+    DONE = "done"
+    FAILED = "failed"
+
+
+@dataclass(frozen=True, eq=False)
+class MachineOutcome:
+    """How the run ended: the failure (None when found), the accepted detection (a
+    `perception.buffer.BufferedDetection`) and the time it was found [s], the end time [s],
+    the states visited in order, the executed camera positions (N, 3) [m] and the final
+    configuration q_end (7,) [rad]."""
+
+    failure: TrialFailure | None
+    found: object | None
+    t_found: float | None
+    t_end: float
+    states: tuple[TrialState, ...]
+    camera_path: np.ndarray
+    q_end: np.ndarray
+
+
+class TrialMachine:
+    """Runs one trial of `method` in `world` (see the module docstring). `pass_frames`: push
+    whole frames (with labels) to the buffer, for the oracle detector only."""
+
+    def __init__(self, world, method, buffer, metrics, config, progress=None, pass_frames: bool = False) -> None:
+        self.world, self.method, self.buffer, self.metrics, self.config = world, method, buffer, metrics, config
+        self.progress = progress
+        self.pass_frames = pass_frames
+        self.t = 0.0
+        self.states: list[TrialState] = []
+        self.cam: list[np.ndarray] = []
+
+    def _feed(self, frame) -> None:
+        obs = frame.observation()
+        self.method.observe(obs)
+        self.buffer.push(frame if self.pass_frames else obs)
+        self.cam.append(frame.T_world_cam[:3, 3].copy())
+
+    def _enter(self, state: TrialState) -> None:
+        if not self.states or self.states[-1] is not state:
+            self.states.append(state)
+
+    def run(self) -> MachineOutcome:
+        cfg = self.config
+        limit = cfg.time_limit_s
+        render_seg = self.pass_frames
+        ex_cfg = ExecutorConfig(frame_rate=cfg.sensing.frame_rate, check_step=cfg.sensing.check_step,
+                                render_rgb=True, render_seg=render_seg)
+        q0 = self.world.q
+        self._feed(self.world.render(q0, t=0.0, rgb=True, seg=render_seg))
+        self.metrics.explored_fraction(0.0, self.method.occupancy)
+        failure, found = None, None
+        while True:
+            self.buffer.sync()
+            self.method.add_points_of_interest(self.buffer.take_hints())
+            found = self.buffer.best()
+            if found is not None:
+                self._enter(TrialState.FOUND)
+                break
+            if self.t >= limit:
+                failure = TrialFailure.TIME_LIMIT
+                break
+            d = self.method.decide()
+            self._enter(TrialState.NFA if d.phase is Phase.NFA else TrialState.EXPLORE)
+            self.metrics.decision(d)
+            self.t += d.compute_s if cfg.clock.measured else cfg.clock.planning_charge_s
+            if d.stop is not None:
+                failure = _STOP_TO_FAILURE[d.stop]
+                break
+            traj = time_parameterize(d.path, cfg.timing)
+            t_start = self.t
+            res = execute(self.world, traj, ex_cfg, t0=t_start)
+            for f in res.frames:
+                self._feed(f)
+            self.t = res.t_end
+            self.metrics.motion(traj, t_start, res.t_end)
+            if res.contacts:
+                self.metrics.collisions += len(res.contacts)
+                failure = TrialFailure.COLLISION
+                break
+            self.method.executed(d.path)
+            self._feed(self.world.render(res.q_end, t=self.t, rgb=True, seg=render_seg))
+            self.metrics.explored_fraction(self.t, self.method.occupancy)
+            if self.progress is not None:
+                self.progress(f"t = {self.t:6.1f} s  {d.phase.value:7s} decision {self.metrics.decisions:3d}  "
+                              f"explored {self.metrics.explored[-1][1]:.2f}")
+        t_found = None
+        if found is not None:
+            t_found = found.detection.t
+            if t_found > limit:
+                failure, found, t_found = TrialFailure.TIME_LIMIT, None, None
+        self._enter(TrialState.DONE if failure is None else TrialState.FAILED)
+        return MachineOutcome(failure, found, t_found, self.t, tuple(self.states), np.array(self.cam).reshape(-1, 3),
+                              self.world.q)

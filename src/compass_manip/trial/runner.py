@@ -1,0 +1,108 @@
+"""Run one trial: `run_trial(TrialSpec(method, level, scene, trial, seed), config)`.
+
+The scene is the certified scene (level, scene index, seed); trials of one scene differ by
+their trial seed: the method's generator is `np.random.default_rng(SeedSequence((seed,
+level, scene, trial)))`. The result's metrics may consult the simulator's oracle (truth of
+the accepted detection, the target's surroundings); the method never does.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import CompassInputError
+from ..exploration.registry import available_methods, make_method
+from ..perception.buffer import DetectionBuffer
+from ..perception.detector import DETECTORS
+from ..robot.kinematics import PandaKinematics
+from ..sim.certify import certified_scene
+from ..sim.levels import check_level
+from ..sim.oracle import OracleSegmentationDetector, detection_is_target, target_surroundings
+from ..sim.world import World
+from .config import ORACLE_DETECTOR, TrialConfig
+from .machine import MachineOutcome, TrialMachine
+from .metrics import MetricsRecorder
+from .result import TrialFailure, TrialResult
+
+
+@dataclass(frozen=True)
+class TrialSpec:
+    method: str
+    level: int
+    scene: int
+    trial: int = 0
+    seed: int = 0
+
+
+def check_spec(spec: TrialSpec) -> TrialSpec:
+    """Raise CompassInputError (one line naming what is allowed) on a bad spec."""
+    if spec.method not in available_methods():
+        names = ", ".join(available_methods())
+        raise CompassInputError(f"method {spec.method!r} is not registered; use one of {names}")
+    check_level(spec.level)
+    for name in ("scene", "trial", "seed"):
+        v = getattr(spec, name)
+        if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 0:
+            raise CompassInputError(f"{name} {v!r} is not allowed; use an integer >= 0")
+    return spec
+
+
+def trial_rng(spec: TrialSpec) -> np.random.Generator:
+    return np.random.default_rng(np.random.SeedSequence((spec.seed, spec.level, spec.scene, spec.trial)))
+
+
+@dataclass(frozen=True, eq=False)
+class TrialRun:
+    """A result with what the CLI draws and the benchmark reads: the machine's outcome,
+    the scene and the metrics recorder (per-decision compute times and phases)."""
+
+    result: TrialResult
+    outcome: MachineOutcome
+    scene: object
+    metrics: MetricsRecorder
+
+
+def run_trial(spec: TrialSpec, config: TrialConfig | None = None, progress=None) -> TrialResult:
+    """Run one trial and return its metrics."""
+    return run_trial_full(spec, config, progress).result
+
+
+def run_trial_full(spec: TrialSpec, config: TrialConfig | None = None, progress=None) -> TrialRun:
+    config = config or TrialConfig()
+    check_spec(spec)
+    wall0 = time.perf_counter()
+    scene = certified_scene(spec.level, spec.scene, spec.seed).scene
+    world = World(scene)
+    task = scene.task(config.time_limit_s)
+    rng = trial_rng(spec)
+    q0 = np.asarray(world.robot.q_home, float)
+    method = make_method(spec.method, task, config.method, rng, q0, world.camera.K)
+    oracle = config.detector_kind == ORACLE_DETECTOR
+    detector = OracleSegmentationDetector(world.target_label) if oracle else DETECTORS[config.detector_kind](
+        config.detector)
+    buffer = DetectionBuffer(detector, task.target, config.buffer)
+    metrics = MetricsRecorder(PandaKinematics(world.robot), target_surroundings(scene, config.surroundings_margin))
+    try:
+        outcome = TrialMachine(world, method, buffer, metrics, config, progress, pass_frames=oracle).run()
+    finally:
+        buffer.close()
+        world.close()
+    failure = outcome.failure
+    true_det = None
+    if outcome.found is not None:
+        true_det = detection_is_target(scene, outcome.found.detection)
+        if not true_det:
+            failure = TrialFailure.FALSE_DETECTION
+    limit = config.time_limit_s
+    t_find = outcome.t_found if failure is None else limit
+    pft = metrics.path_length_at(outcome.t_found if failure is None else min(outcome.t_end, limit))
+    med, p90 = metrics.decision_ms()
+    result = TrialResult(
+        method=spec.method, level=spec.level, scene=spec.scene, trial=spec.trial, seed=spec.seed, failure=failure,
+        tft_s=t_find, pft_m=pft, mpsr=metrics.mpsr, am=metrics.am, gpq=None, collisions=metrics.collisions,
+        explored_curve=tuple(metrics.explored), decisions=metrics.decisions, planning_ms_median=med,
+        planning_ms_p90=p90, wall_s=time.perf_counter() - wall0, true_detection=true_det,
+    )
+    return TrialRun(result, outcome, scene, metrics)

@@ -1,0 +1,120 @@
+"""MUE-RRT tree and NFA scan on a real first view: every node valid and reachable along its
+path, NFA candidates hold the body joints, decisions return validated paths."""
+import numpy as np
+import pytest
+
+from compass_manip.exploration.base import Phase
+from compass_manip.exploration.compass import CompassConfig, CompassMethod, task_priors
+from compass_manip.exploration.mue_rrt import TreeConfig, grow_tree, score_tree, shortcut, UtilityWeights
+from compass_manip.exploration.nfa import NFAConfig, nfa_step, safe_box_map, wrist_candidates
+from compass_manip.exploration.registry import METHODS, available_methods, make_method
+from compass_manip.errors import CompassInputError
+from compass_manip.mapping.occupancy import VoxelState
+from compass_manip.robot.ik import PandaIK
+from compass_manip.sim.certify import certified_scene
+from compass_manip.sim.world import World
+
+
+@pytest.fixture(scope="module")
+def setup():
+    scene = certified_scene(1, 1, 0).scene
+    world = World(scene)
+    q0 = np.asarray(world.robot.q_home)
+    frame = world.render(q0, seg=False)
+    K = world.camera.K
+    world.close()
+    return scene, frame, q0, K
+
+
+def _method(setup, config=None, seed=0):
+    scene, frame, q0, K = setup
+    m = CompassMethod(scene.task(), config or CompassConfig(), np.random.default_rng(seed), q0, K)
+    m.observe(frame.observation())
+    return m
+
+
+def test_every_tree_node_is_valid_and_reachable_along_its_path(setup):
+    m = _method(setup)
+    w = m.world
+    tree = grow_tree(w, PandaIK(w.kin), w.frontiers, m.priors, np.array([-1.0, 0, 0]),
+                     TreeConfig(iterations=40), np.random.default_rng(1))
+    assert tree.count > 5
+    checker = w.checker
+    assert np.all(checker.are_valid(tree.q))
+    for k in range(tree.count):
+        path = tree.path_to(k)
+        assert np.allclose(path[0], w.q) and np.allclose(path[-1], tree.q[k])
+        assert checker.path_valid(path, 0.005), k
+    scored = score_tree(w, tree, m.K, None, m.priors, UtilityWeights(), TreeConfig())
+    assert scored.U[0] == -np.inf and np.isfinite(scored.U).any()
+    # the camera pose of each node is FK of its configuration
+    np.testing.assert_allclose(scored.T_world_cam[3], w.kin.T_world_cam(tree.q[3]), atol=1e-9)
+
+
+def test_shortcut_keeps_ends_and_only_valid_jumps():
+    path = np.zeros((5, 7))
+    path[:, 0] = [0, 1, 2, 3, 4]
+    blocked = lambda a, b: abs(b[0] - a[0]) <= 2  # noqa: E731  jumps of at most 2 are valid
+    out = shortcut(path, blocked)
+    assert out[:, 0].tolist() == [0, 2, 4]
+
+
+def test_nfa_holds_the_body_and_picks_the_best_valid_wrist_view(setup):
+    rng = np.random.default_rng(3)
+    _, _, q0, _ = setup
+    Q = wrist_candidates(q0, 50, rng, wrist_range=1.0)
+    assert np.all(Q[:, :4] == q0[:4]) and np.all(np.abs(Q[:, 4:] - q0[4:]) <= 1.0 + 1e-12)
+    m = _method(setup)
+    path, gain, att, ok, scratch = nfa_step(m.world, q0, np.zeros(3), NFAConfig(), m.K, np.random.default_rng(4))
+    assert path is not None and gain >= NFAConfig().min_gain and ok == 1 and att >= 1
+    assert np.all(path[:, :4] == q0[:4])
+    assert m.world.checker.path_valid(path, 0.005)
+    # the gain map keeps the unknown voxels of the safety box only
+    occ = m.world.occ
+    small = safe_box_map(occ, np.array([0.0, 0.0, 0.0]), np.array([0.1, 0.1, 0.1]))
+    i0 = occ.world_to_voxel(np.zeros((1, 3)))[0]
+    i1 = occ.world_to_voxel(np.full((1, 3), 0.1))[0] + 1
+    box = tuple(slice(a, b) for a, b in zip(i0, i1))
+    assert np.array_equal(small.state[box], occ.state[box])
+    outside = small.state.copy()
+    outside[box] = VoxelState.FREE
+    assert np.all(outside == VoxelState.FREE)
+
+
+def test_decisions_start_with_the_nfa_and_return_valid_paths(setup):
+    m = _method(setup)
+    d = m.decide()
+    assert d.phase is Phase.NFA and d.stop is None and d.plans_succeeded == 1
+    assert m.world.checker.path_valid(d.path, 0.005)
+    m2 = make_method("compass-no-nfa", setup[0].task(), CompassConfig(), np.random.default_rng(0), setup[2],
+                     setup[3])
+    m2.observe(setup[1].observation())
+    d2 = m2.decide()
+    assert d2.phase is Phase.EXPLORE and d2.path is not None
+    assert m2.world.checker.path_valid(d2.path, 0.005)
+
+
+def test_registry_lists_methods_and_ablations():
+    assert {"compass", "compass-no-nfa", "compass-no-heuristic", "compass-no-momentum",
+            "compass-no-manip"} <= set(available_methods())
+    assert set(METHODS) == set(available_methods())
+    with pytest.raises(CompassInputError, match="use one of compass, compass-no-nfa"):
+        make_method("nope", None, CompassConfig(), np.random.default_rng(0), np.zeros(7), np.eye(3))
+
+
+def test_task_priors_lie_inside_the_space(setup):
+    task = setup[0].task()
+    p = task_priors(task, 0.06)
+    assert p.shape == (7, 3) and np.all(task.space.contains(p))
+
+
+def test_tree_costs_equal_the_path_lengths(setup):
+    from compass_manip.exploration.mue_rrt import tree_costs
+    from compass_manip.exploration.utility import motion_cost
+
+    m = _method(setup)
+    w = m.world
+    tree = grow_tree(w, PandaIK(w.kin), w.frontiers, m.priors, np.array([-1.0, 0, 0]),
+                     TreeConfig(iterations=20), np.random.default_rng(5))
+    np.testing.assert_allclose(tree_costs(tree.q, tree.parent[: tree.count]),
+                               motion_cost([tree.path_to(k) for k in range(tree.count)]), atol=1e-12)

@@ -1,0 +1,126 @@
+"""The appearance detector on scenes built here: it finds a visible target, ignores
+distractors sharing its colour or its shape (or too big to be it), and reports nothing
+when the target is hidden. Also the learned-detector plug-in adapter."""
+import numpy as np
+import pytest
+
+from compass_manip.perception.detector import (AppearanceDetector, BoxModelDetector, Verdict, classify_shape,
+                                               colour_mask, DetectorConfig)
+from compass_manip.sim.scenes import CabinetSpec, Primitive, SceneSpec, target_query
+from compass_manip.sim.world import World
+
+RED, BLUE, GREY = (0.9, 0.05, 0.05, 1.0), (0.2, 0.45, 0.8, 1.0), (0.6, 0.6, 0.6, 1.0)
+FLOOR_Z = 0.56  # cabinet floor: the objects stand in the home camera's view
+CAB = CabinetSpec(interior_min=(0.5, -0.32, FLOOR_Z), interior_max=(0.85, 0.32, 0.95))
+TARGET = Primitive("target", "box", (0.025, 0.025, 0.06), (0.66, -0.12, FLOOR_Z + 0.06), 0.3, RED)
+
+
+def _scene(clutter, target=TARGET):
+    return SceneSpec(level=1, index=0, seed=(0,), cabinet=CAB, target=target, clutter=tuple(clutter))
+
+
+def _observe(scene):
+    world = World(scene)
+    try:
+        frame = world.render(np.asarray(world.robot.q_home), seg=True)
+        return frame, world.target_label
+    finally:
+        world.close()
+
+
+@pytest.fixture(scope="module")
+def detector():
+    return AppearanceDetector()
+
+
+def test_finds_the_visible_target_among_colour_and_shape_distractors(detector):
+    same_colour = Primitive("red_can", "cylinder", (0.025, 0.06), (0.66, 0.0, FLOOR_Z + 0.06), 0.0, RED)
+    same_shape = Primitive("blue_box", "box", (0.025, 0.025, 0.06), (0.66, 0.12, FLOOR_Z + 0.06), 0.3, BLUE)
+    frame, label = _observe(_scene([same_colour, same_shape]))
+    dets = detector(frame.observation(), target_query(TARGET))
+    accepted = [d for d in dets if d.accepted]
+    assert len(accepted) == 1
+    d = accepted[0]
+    # the accepted region is the target: its pixels carry the target's label, its points lie on it
+    u0, v0, u1, v1 = d.bbox
+    assert np.mean(frame.seg[v0:v1 + 1, u0:u1 + 1] == label) > 0.6
+    lo, hi = TARGET.aabb()
+    assert np.all(np.all((d.points_world >= lo - 0.01) & (d.points_world <= hi + 0.01), axis=1))
+    assert d.shape == "box"
+    # the red cylinder was seen (same colour) and rejected by its shape; the blue box never matched
+    others = [x for x in dets if not x.accepted]
+    assert any(x.shape == "round" and x.verdict is Verdict.WRONG_SHAPE for x in others)
+    assert all(x.centroid_world[1] < 0.06 for x in dets)
+
+
+def test_a_red_cylinder_target_is_found_and_the_red_box_rejected(detector):
+    can = Primitive("target", "cylinder", (0.025, 0.06), (0.66, 0.0, FLOOR_Z + 0.06), 0.0, RED)
+    box = Primitive("red_box", "box", (0.025, 0.025, 0.06), (0.66, -0.12, FLOOR_Z + 0.06), 0.3, RED)
+    frame, _ = _observe(_scene([box], target=can))
+    dets = detector(frame.observation(), target_query(can))
+    acc = [d for d in dets if d.accepted]
+    assert len(acc) == 1 and abs(acc[0].centroid_world[1]) < 0.03
+    assert any(d.verdict is Verdict.WRONG_SHAPE and d.centroid_world[1] < -0.08 for d in dets)
+
+
+def test_rejects_a_same_colour_same_shape_object_twice_the_size(detector):
+    big = Primitive("target", "box", (0.05, 0.05, 0.12), (0.7, -0.1, FLOOR_Z + 0.12), 0.3, RED)
+    frame, _ = _observe(_scene([], target=big))
+    dets = detector(frame.observation(), target_query(TARGET))  # the query is the small box
+    assert dets and not any(d.accepted for d in dets)
+    assert any(d.verdict is Verdict.WRONG_SIZE for d in dets)
+
+
+def test_reports_nothing_when_the_target_is_hidden(detector):
+    board = Primitive("board", "box", (0.01, 0.1, 0.12), (0.58, -0.12, FLOOR_Z + 0.12), 0.0, GREY)
+    frame, label = _observe(_scene([board]))
+    assert np.count_nonzero(frame.seg == label) == 0  # hidden indeed
+    assert detector(frame.observation(), target_query(TARGET)) == ()
+
+
+def test_colour_mask_and_shape_classes_on_hand_made_data():
+    rgb = np.zeros((4, 4, 3), np.uint8)
+    rgb[0, 0] = (200, 10, 12)  # red, bright
+    rgb[0, 1] = (90, 5, 5)  # red, shaded
+    rgb[0, 2] = (40, 90, 180)  # blue
+    rgb[0, 3] = (3, 0, 0)  # too dark to judge
+    m = colour_mask(rgb, "red", DetectorConfig())
+    assert m[0].tolist() == [True, True, False, False]
+    cfg = DetectorConfig(min_side_pixels=10)
+    cam = np.array([0.0, 0.0, 0.5])
+    # a flat face towards the camera: all normals along -x -> box
+    pts = np.column_stack([np.full(50, 0.5), np.linspace(-0.02, 0.02, 50), np.full(50, 0.5)])
+    assert classify_shape(np.tile([-1.0, 0.0, 0.0], (50, 1)), pts, cam, cfg) == "box"
+    # a cylinder side: horizontal normals fanning over +-70 deg -> round
+    a = np.radians(np.linspace(-70, 70, 80)) + np.pi
+    n = np.column_stack([np.cos(a), np.sin(a), np.zeros_like(a)])
+    assert classify_shape(n, 0.5 + 0.02 * n, cam, cfg) == "round"
+
+
+def test_box_model_plug_in_turns_boxes_into_detections():
+    """A stand-in for a learned open-vocabulary model: the adapter keeps its boxes and
+    scores, takes the nearest depth in each box as the object's points."""
+    class FakeModel:
+        def __call__(self, rgb, text):
+            assert "red box" in text
+            return np.array([[150, 100, 170, 130], [10, 10, 20, 20]]), np.array([0.9, 0.3])
+
+    frame, _ = _observe(_scene([]))
+    dets = BoxModelDetector(FakeModel())(frame.observation(), target_query(TARGET))
+    assert [d.verdict for d in dets] == [Verdict.ACCEPTED, Verdict.PARTIAL]
+    assert dets[0].bbox == (150, 100, 170, 130) and len(dets[0].points_world) > 0
+
+
+def test_oracle_detector_and_truth_check(detector):
+    from compass_manip.sim.oracle import OracleSegmentationDetector, detection_is_target, target_surroundings
+
+    same_colour = Primitive("red_can", "cylinder", (0.025, 0.06), (0.66, 0.0, FLOOR_Z + 0.06), 0.0, RED)
+    scene = _scene([same_colour])
+    frame, label = _observe(scene)
+    (oracle,) = OracleSegmentationDetector(label)(frame)
+    assert oracle.accepted and detection_is_target(scene, oracle)
+    dets = detector(frame.observation(), target_query(TARGET))
+    verdicts = {d.verdict: detection_is_target(scene, d) for d in dets}
+    assert verdicts[Verdict.ACCEPTED] is True and verdicts[Verdict.WRONG_SHAPE] is False
+    lo, hi = target_surroundings(scene, 0.1)
+    assert np.all(lo >= np.asarray(CAB.interior_min)) and np.all(hi <= np.asarray(CAB.interior_max))
