@@ -10,8 +10,7 @@ unsafe even inside the swept space.
 """
 from __future__ import annotations
 
-import copy
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numba as nb
 import numpy as np
@@ -161,18 +160,12 @@ class WorldModel:
         return self._checker
 
     def _checker_for(self, grid: DistanceGrid) -> ValidityChecker:
-        """A checker on a new distance grid of the same shape and resolution. Packing the
-        robot's spheres costs ~15 ms per checker, so the first checker's packed robot is
-        reused and only its grid arrays are swapped (same layout as `ValidityChecker`)."""
-        base = self._base_checker
-        if base is None:
-            base = self._base_checker = ValidityChecker(self.spheres, grid=grid, config=self.config.validity)
-            return base
-        c = copy.copy(base)
-        c.grid = grid
-        c._p = replace(base._p, grid=(grid.dist, grid.origin, grid.resolution, True,
-                                      base.config.outside_grid_free))
-        return c
+        """A checker on a new distance grid of the map's resolution; the first checker's
+        packed robot spheres are reused (`ValidityChecker.with_grid`)."""
+        if self._base_checker is None:
+            self._base_checker = ValidityChecker(self.spheres, grid=grid, config=self.config.validity)
+            return self._base_checker
+        return self._base_checker.with_grid(grid)
 
     @property
     def frontiers(self) -> tuple[FrontierCluster, ...]:

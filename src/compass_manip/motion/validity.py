@@ -11,8 +11,9 @@ tested for self-collision, never against the environment it stands on.
 """
 from __future__ import annotations
 
+import copy
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numba as nb
 import numpy as np
@@ -173,6 +174,18 @@ class ValidityChecker:
             params=np.array([config.margin, config.self_margin, half_diag, 0.0]),
         )
         self._bounds = motion_bounds(sphere_model, self._p.robot)
+
+    def with_grid(self, grid: DistanceGrid) -> "ValidityChecker":
+        """This checker on another distance grid of the same resolution (a map update),
+        reusing the packed robot spheres (packing them costs ~15 ms)."""
+        if self.grid is None or not isinstance(grid, DistanceGrid) or grid.resolution != self.grid.resolution:
+            raise CompassInputError("with_grid needs a checker built with a grid and a DistanceGrid of the same "
+                                    "resolution; build a new ValidityChecker otherwise")
+        out = copy.copy(self)
+        out.grid = grid
+        out._p = replace(self._p, grid=GridData(grid.dist, grid.origin, grid.resolution, True,
+                                                self.config.outside_grid_free))
+        return out
 
     def kernel_args(self) -> KernelArgs:
         """(kin, robot, grid, prims, limits, params) for `config_valid_kernel` and friends."""
