@@ -8,7 +8,8 @@ contact p1 on the surface, the closing direction into the object along its inwar
 the second contact p2 the farthest surface point on that line (within `line_radius`) whose
 normal faces along it; the pair is kept when w fits the hand with clearance, nothing of the
 target lies outside the contacts on the closing line, and nothing of it reaches the palm.
-Each pair gives `n_rolls` approach directions around the closing line.
+Each pair gives `n_rolls` approach directions around the closing line, each with the hand
+both ways round (the fingers are symmetric; the wrist camera on one side of the hand is not).
 """
 from __future__ import annotations
 
@@ -31,12 +32,16 @@ FINGER_HALF_WIDTH = 0.01
 
 @dataclass(frozen=True)
 class CandidateConfig:
-    """n_contacts first contacts sampled; n_rolls approach directions per contact pair;
+    """n_contacts first contacts sampled; n_directions closing directions per first contact:
+    the inward normal and n_directions - 1 drawn within `cone` [rad] of it (GraspNet labels
+    the whole spectrum of friction needs, not only perfect antipodal pairs); n_rolls approach directions per contact pair;
     line_radius [m]: second-contact search radius around the closing line; width_clearance
     [m]: free opening beyond the contacts on each side (w + 2 clearance <= 0.08 m);
     min_width [m]; depths [m]: TCP offsets along the approach past the contact midpoint."""
 
-    n_contacts: int = 160
+    n_contacts: int = 120
+    n_directions: int = 4
+    cone: float = 0.75
     n_rolls: int = 16
     line_radius: float = 0.004
     width_clearance: float = 0.006
@@ -44,6 +49,9 @@ class CandidateConfig:
     depths: tuple[float, ...] = (0.0,)
 
     def __post_init__(self) -> None:
+        if not 1 <= self.n_directions <= 100 or not 0.0 <= self.cone < np.pi / 2:
+            raise CompassInputError(f"n_directions {self.n_directions} / cone {self.cone} rad not allowed; "
+                                    "use 1..100 and [0, pi/2)")
         if not 1 <= self.n_contacts <= 100000 or not 1 <= self.n_rolls <= 360:
             raise CompassInputError(f"n_contacts {self.n_contacts} / n_rolls {self.n_rolls} not allowed; "
                                     "use 1..100000 and 1..360")
@@ -107,12 +115,15 @@ class AntipodalProposer:
         return antipodal_candidates(target, self.config, rng)
 
 
-def contact_pairs(points: np.ndarray, normals: np.ndarray, first: np.ndarray, config: CandidateConfig):
-    """For first-contact indices, the antipodal partner index (-1 where none) and width [m]."""
+def contact_pairs(points: np.ndarray, normals: np.ndarray, first: np.ndarray, config: CandidateConfig,
+                  directions: np.ndarray | None = None):
+    """For first-contact indices and closing directions (default: the inward normals), the
+    partner index (-1 where none) and width [m]."""
     P, N = points, normals
     out_j = np.full(len(first), -1, dtype=np.int64)
+    dirs = -N[first] if directions is None else directions
     for k, i in enumerate(first):
-        c = -N[i]  # closing direction into the object
+        c = dirs[k]  # closing direction into the object
         d = P - P[i]
         t = d @ c
         perp = np.linalg.norm(d - t[:, None] * c, axis=1)
@@ -130,6 +141,20 @@ def contact_pairs(points: np.ndarray, normals: np.ndarray, first: np.ndarray, co
     width = np.zeros(len(first))
     width[ok] = np.linalg.norm(P[out_j[ok]] - P[first[ok]], axis=1)
     return out_j, width
+
+
+def closing_directions(normals: np.ndarray, first: np.ndarray, config: CandidateConfig,
+                       rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """First-contact indices repeated n_directions times and their closing directions: the
+    inward normal, then directions uniform in angle within `cone` [rad] of it."""
+    idx = np.repeat(first, config.n_directions)
+    c = -normals[idx]
+    e1, e2 = _perp_basis(c)
+    th = rng.uniform(0.0, config.cone, len(idx))
+    th[:: config.n_directions] = 0.0
+    ph = rng.uniform(0.0, 2 * np.pi, len(idx))
+    d = np.cos(th)[:, None] * c + np.sin(th)[:, None] * (np.cos(ph)[:, None] * e1 + np.sin(ph)[:, None] * e2)
+    return idx, d / np.linalg.norm(d, axis=1, keepdims=True)
 
 
 def _perp_basis(y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -160,7 +185,8 @@ def antipodal_candidates(target: TargetModel, config: CandidateConfig | None = N
         raise CompassInputError("antipodal_candidates needs an explicit np.random.Generator (rng)")
     P, N = target.points, target.normals
     first = rng.choice(len(P), size=min(config.n_contacts, len(P)), replace=False)
-    partner, width = contact_pairs(P, N, first, config)
+    first, dirs = closing_directions(N, first, config, rng)
+    partner, width = contact_pairs(P, N, first, config, dirs)
     ok = (partner >= 0) & (width <= config.max_width)
     i, j, width = first[ok], partner[ok], width[ok]
     if len(i) == 0:
@@ -179,9 +205,11 @@ def antipodal_candidates(target: TargetModel, config: CandidateConfig | None = N
     for k in range(len(p1)):
         for r in rolls:
             a = np.cos(r) * e1[k] + np.sin(r) * e2[k]
-            for d in config.depths:
-                Ts.append(make_T(np.column_stack([np.cross(y[k], a), y[k], a]), mid[k] + d * a))
-                idx.append(k)
+            for sign in (1.0, -1.0):  # the hand is symmetric, its wrist camera is not
+                yk = sign * y[k]
+                for d in config.depths:
+                    Ts.append(make_T(np.column_stack([np.cross(yk, a), yk, a]), mid[k] + d * a))
+                    idx.append(k)
     T = np.array(Ts)
     idx = np.array(idx)
     clear = palm_clear(P, T, width[idx])

@@ -7,7 +7,8 @@ volume carved (`carve.py`). The path constraint covers the whole manoeuvre: a pl
 from q_current to the pre-grasp, the straight approach along the gripper's z, and the lift
 (arm and held target). The desired approach n comes from the confined space's opening (the
 hand enters against `outward`) made perpendicular to the target's long axis when it has one.
-Candidates are tried by score (ties: the smaller approach angle first); among the feasible
+Candidates are tried by score (ties: the smaller approach angle in 10 deg bins first, then
+the higher grasp point); among the feasible
 ones of the best score the planner takes any goal it reaches.
 
 With `constrained=False` (the paper's ablation) the highest-scored candidate with any IK
@@ -44,6 +45,9 @@ class Rejection(Enum):
     """Why one candidate was rejected."""
 
     APPROACH_ANGLE = "approach more than delta from the desired direction"
+    HAND_IN_COLLISION = "the hand collides with the map at the grasp pose"
+    HAND_APPROACH_BLOCKED = "the hand collides with the map on its way in from the pre-grasp"
+    HAND_LIFT_BLOCKED = "the hand collides with the map on its way up"
     NO_IK = "no IK solution within the joint limits"
     IK_IN_COLLISION = "every IK solution collides with the map"
     PREGRASP_BLOCKED = "no collision-free pre-grasp next to the grasp configuration"
@@ -73,15 +77,15 @@ class GraspSelectConfig:
     approach); planner: settings of the path to the pre-grasp."""
 
     constrained: bool = True
-    max_approach_angle: float = math.radians(60.0)
+    max_approach_angle: float = math.radians(50.0)
     pregrasp_distance: float = 0.10
     lift_height: float = 0.10
-    clearance: float = 0.035
+    clearance: float = 0.055
     robot_clearance: float = 0.02
     n_q7: int = 8
     max_ik_solutions: int = 3
     max_feasible: int = 4
-    max_checked: int = 150
+    max_checked: int = 60
     max_joint_step: float = 0.6
     candidates: CandidateConfig = field(default_factory=CandidateConfig)
     planner: PlannerConfig = field(default_factory=lambda: PlannerConfig(time_budget=0.5))
@@ -131,7 +135,7 @@ class GraspSelection:
         return self.failure is None
 
 
-def desired_approach(target: TargetModel, task: Task, tilt: float = math.radians(30.0),
+def desired_approach(target: TargetModel, task: Task, tilt: float = math.radians(45.0),
                      elongation: float = 1.3) -> np.ndarray:
     """Unit approach direction n from the confined space's opening and the target's axes.
 
@@ -179,6 +183,35 @@ def base_volume(spheres: SphereModel, q_ref: np.ndarray, n_q1: int = 36, n_q2: i
     Q[:, 1] = np.tile(q2, n_q1)
     C = spheres.sphere_centers(Q)[:, keep]
     return C.reshape(-1, 3), np.tile(spheres.radii[keep] + 0.02, len(Q))
+
+
+def rigid_hand_spheres(spheres: SphereModel) -> tuple[np.ndarray, np.ndarray]:
+    """Spheres of the links rigid with the TCP (link7, flange, hand, camera housing, open
+    fingers) in the TCP frame: (centres (K,3) [m], radii (K,) [m]). They let a grasp pose
+    be checked against the map before any IK is solved."""
+    names = ("panda_link7", "panda_link8", "hand/panda_hand", "hand/panda_leftfinger", "hand/panda_rightfinger")
+    keep = np.isin(spheres.body_index, [spheres.link_names.index(k) for k in names if k in spheres.link_names])
+    q = np.array([0.0, -0.3, 0.0, -2.2, 0.0, 2.0, 0.785])
+    C = spheres.sphere_centers(q[None])[0][keep]
+    T = spheres.kinematics.T_world_tcp(q)
+    return (C - T[:3, 3]) @ T[:3, :3], spheres.radii[keep].copy()
+
+
+def hand_clear(field: DistanceField, T_world_tcp: np.ndarray, local: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+    """(M,) True where every rigid hand sphere at each TCP pose (M,4,4) clears unsafe space,
+    with the validity checker's conservative bound (nearest voxel centre, its offset and
+    half a voxel diagonal subtracted)."""
+    C, r = local
+    W = np.einsum("mij,kj->mki", T_world_tcp[:, :3, :3], C) + T_world_tcp[:, None, :3, 3]
+    res = field.resolution
+    f = (W - field.grid_min) / res - 0.5
+    i = np.floor(f + 0.5).astype(np.int64)
+    shape = np.asarray(field.distances.shape)
+    inside = np.all((i >= 0) & (i < shape), axis=-1)
+    ic = np.clip(i, 0, shape - 1)
+    d = field.distances[ic[..., 0], ic[..., 1], ic[..., 2]]
+    clear = d - np.linalg.norm(f - i, axis=-1) * res - 0.5 * math.sqrt(3.0) * res - r
+    return np.all(inside & (clear >= 0.0), axis=1)
 
 
 def offset_pose(T: np.ndarray, along_approach: float = 0.0, up: float = 0.0) -> np.ndarray:
@@ -307,7 +340,23 @@ def select_grasp(target: TargetModel, occ: OccupancyMap, task: Task, q_current: 
     rejections[Rejection.APPROACH_ANGLE] = len(cands) - len(within)
     if len(within) == 0:
         return done(GraspFailure.NO_APPROACH)
-    order = within[np.lexsort((ang[within], -cands.score[within]))]
+    local = rigid_hand_spheres(spheres)
+    for reason, offsets in ((Rejection.HAND_IN_COLLISION, [(0.0, 0.0)]),
+                            (Rejection.HAND_APPROACH_BLOCKED,
+                             [(-f * config.pregrasp_distance, 0.0) for f in (1.0, 0.75, 0.5, 0.25)]),
+                            (Rejection.HAND_LIFT_BLOCKED, [(0.0, f * config.lift_height) for f in (0.5, 1.0)])):
+        ok = np.ones(len(within), dtype=bool)
+        for back, up in offsets:
+            T = cands.T_world_tcp[within].copy()
+            T[:, :3, 3] += back * T[:, :3, 2] + np.array([0.0, 0.0, up])
+            ok &= hand_clear(field_, T, local)
+        rejections[reason] = int(np.count_nonzero(~ok))
+        within = within[ok]
+    if len(within) == 0:
+        return done(GraspFailure.NO_APPROACH_PATH)
+    # ties of s: the approach nearer n first (10 deg bins), then the higher grasp point
+    z = cands.T_world_tcp[within, 2, 3]
+    order = within[np.lexsort((-z, np.round(ang[within] / math.radians(10.0)), -cands.score[within]))]
     lift_clear = checks.held_target_clear()
     feasible: list[tuple[int, tuple]] = []
     n_free_ik = 0
