@@ -4,7 +4,8 @@ target's own volume, which the closing fingers must enter.
 The map holds the target as occupied voxels and the space behind it as unknown, so with
 "unknown is unsafe" no finger could ever close around it. `target_carve` marks safe the
 voxels within `clearance` [m] of the target model's points (seen and symmetry-completed)
-that are either unknown or contain a target point, and lie above the target's lowest point.
+that are either unknown or occupied by the target (they contain one of its points or lie
+inside the box its points span along its principal axes), and lie above its lowest point.
 Occupied voxels without a target point (a neighbouring object, a wall, the shelf under the
 target) stay unsafe; so does everything else the camera has not seen. The one assumption:
 unknown space within `clearance` of the target is free, which the fingers' opening needs.
@@ -37,7 +38,11 @@ def target_carve(occ: OccupancyMap, target: TargetModel, clearance: float) -> np
     tv = occ.world_to_voxel(target.points)
     tv = tv[occ.in_grid(tv)]
     has_point[tv[:, 0], tv[:, 1], tv[:, 2]] = True
-    ok = near & ((st == VoxelState.UNKNOWN) | ((st == VoxelState.OCCUPIED) & has_point[ijk[:, 0], ijk[:, 1], ijk[:, 2]]))
+    proj = target.points @ target.axes
+    mid = 0.5 * (proj.min(0) + proj.max(0))
+    inside = np.all(np.abs(centres @ target.axes - mid) <= 0.5 * (proj.max(0) - proj.min(0)), axis=1)
+    own = has_point[ijk[:, 0], ijk[:, 1], ijk[:, 2]] | inside
+    ok = near & ((st == VoxelState.UNKNOWN) | ((st == VoxelState.OCCUPIED) & own))
     sel = ijk[ok]
     mask[sel[:, 0], sel[:, 1], sel[:, 2]] = True
     return mask

@@ -31,7 +31,7 @@ from ..mapping.distance import DistanceField
 from ..mapping.occupancy import OccupancyMap
 from ..motion.planner import PlannerConfig, plan
 from ..motion.primitives import DistanceGrid
-from ..motion.validity import ValidityChecker
+from ..motion.validity import ValidityChecker, ValidityConfig
 from ..robot.ik import PandaIK
 from ..robot.model import Q_MAX, Q_MIN, check_q
 from ..robot.spheres import SphereModel
@@ -74,7 +74,8 @@ class GraspSelectConfig:
     its own volume is marked safe; n_q7 IK samples; max_ik_solutions tried per candidate;
     max_feasible feasible candidates gathered before planning; max_checked candidates checked
     at most; max_joint_step [rad] between grasp and pre-grasp/lift configurations (a straight
-    approach); planner: settings of the path to the pre-grasp."""
+    approach); voxel_extent: unsafe voxels are cubes (the checker subtracts half a voxel
+    diagonal) rather than points at their centres; planner: settings of the path to the pre-grasp."""
 
     constrained: bool = True
     max_approach_angle: float = math.radians(50.0)
@@ -87,6 +88,7 @@ class GraspSelectConfig:
     max_feasible: int = 4
     max_checked: int = 60
     max_joint_step: float = 0.6
+    voxel_extent: bool = True
     candidates: CandidateConfig = field(default_factory=CandidateConfig)
     planner: PlannerConfig = field(default_factory=lambda: PlannerConfig(time_budget=0.5))
 
@@ -197,7 +199,8 @@ def rigid_hand_spheres(spheres: SphereModel) -> tuple[np.ndarray, np.ndarray]:
     return (C - T[:3, 3]) @ T[:3, :3], spheres.radii[keep].copy()
 
 
-def hand_clear(field: DistanceField, T_world_tcp: np.ndarray, local: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+def hand_clear(field: DistanceField, T_world_tcp: np.ndarray, local: tuple[np.ndarray, np.ndarray],
+               voxel_extent: bool = True) -> np.ndarray:
     """(M,) True where every rigid hand sphere at each TCP pose (M,4,4) clears unsafe space,
     with the validity checker's conservative bound (nearest voxel centre, its offset and
     half a voxel diagonal subtracted)."""
@@ -210,7 +213,8 @@ def hand_clear(field: DistanceField, T_world_tcp: np.ndarray, local: tuple[np.nd
     inside = np.all((i >= 0) & (i < shape), axis=-1)
     ic = np.clip(i, 0, shape - 1)
     d = field.distances[ic[..., 0], ic[..., 1], ic[..., 2]]
-    clear = d - np.linalg.norm(f - i, axis=-1) * res - 0.5 * math.sqrt(3.0) * res - r
+    half = 0.5 * math.sqrt(3.0) * res if voxel_extent else 0.0
+    clear = d - np.linalg.norm(f - i, axis=-1) * res - half - r
     return np.all(inside & (clear >= 0.0), axis=1)
 
 
@@ -294,7 +298,8 @@ def select_grasp(target: TargetModel, occ: OccupancyMap, task: Task, q_current: 
         safe_c = np.vstack([safe_c, np.asarray(safe_spheres[0]).reshape(-1, 3)])
         safe_r = np.r_[safe_r, np.asarray(safe_spheres[1]).reshape(-1)]
     field_ = grasp_field(occ, target, config.clearance, safe_spheres=(safe_c, safe_r), extra_safe=extra_safe)
-    checker = ValidityChecker(spheres, grid=DistanceGrid.from_distance_field(field_))
+    checker = ValidityChecker(spheres, grid=DistanceGrid.from_distance_field(field_),
+                              config=ValidityConfig(voxel_extent=config.voxel_extent))
     checks = _Checks(checker, field_, ik, target, config)
     cands = proposer.propose(target, rng)
     rejections: Counter = Counter()
@@ -349,7 +354,7 @@ def select_grasp(target: TargetModel, occ: OccupancyMap, task: Task, q_current: 
         for back, up in offsets:
             T = cands.T_world_tcp[within].copy()
             T[:, :3, 3] += back * T[:, :3, 2] + np.array([0.0, 0.0, up])
-            ok &= hand_clear(field_, T, local)
+            ok &= hand_clear(field_, T, local, config.voxel_extent)
         rejections[reason] = int(np.count_nonzero(~ok))
         within = within[ok]
     if len(within) == 0:
