@@ -13,7 +13,9 @@ ones of the best score the planner takes any goal it reaches.
 
 With `constrained=False` (the paper's ablation) the highest-scored candidate with any IK
 solution inside the joint limits is taken (ties broken at random), whatever the map and the
-approach angle say; the motion planner still plans the way to its pre-grasp on the map.
+approach angle say; the way to its pre-grasp is still planned, as the paper's MoveIt does it:
+on the map with unknown space free (occupied voxels stay obstacles). Approach and lift are
+not checked.
 """
 from __future__ import annotations
 
@@ -28,7 +30,7 @@ import numpy as np
 from ..errors import CompassInputError
 from ..geometry import make_T
 from ..mapping.distance import DistanceField
-from ..mapping.occupancy import OccupancyMap
+from ..mapping.occupancy import OccupancyMap, VoxelState
 from ..motion.planner import PlannerConfig, plan
 from ..motion.primitives import DistanceGrid
 from ..motion.validity import ValidityChecker, ValidityConfig
@@ -320,6 +322,11 @@ def select_grasp(target: TargetModel, occ: OccupancyMap, task: Task, q_current: 
         return done(GraspFailure.NO_CANDIDATE)
     ang = approach_angles(cands, n)
     if not config.constrained:
+        # the paper's planner (MoveIt on the OctoMap) takes unknown space as free
+        loose = grasp_field(occ, target, config.clearance, safe_spheres=(safe_c, safe_r),
+                            extra_safe=occ.state == VoxelState.UNKNOWN)
+        plan_checker = ValidityChecker(spheres, grid=DistanceGrid.from_distance_field(loose),
+                                       config=ValidityConfig(voxel_extent=config.voxel_extent))
         order = rng.permutation(len(cands))
         order = order[np.argsort(-cands.score[order], kind="stable")]
         for idx in order[: config.max_checked]:
@@ -333,7 +340,7 @@ def select_grasp(target: TargetModel, occ: OccupancyMap, task: Task, q_current: 
             if q_pre is None or q_lift is None:
                 rejections[Rejection.NO_IK] += 1
                 continue
-            res = plan(q_current, q_pre[None], checker, config.planner, rng)
+            res = plan(q_current, q_pre[None], plan_checker, config.planner, rng)
             plan_time += res.plan_time_s
             if not res.success:
                 rejections[Rejection.NO_PATH] += 1
