@@ -16,7 +16,6 @@ import json
 import os
 import sys
 import time
-from dataclasses import replace
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
