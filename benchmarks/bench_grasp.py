@@ -1,0 +1,98 @@
+"""Grasping benchmark: grasp-only trials over certified scenes, constraints on and off.
+
+Per scene (level L, index i, seed 0): the grasp-only harness (`sim.grasp_only`: oracle start
+view and oracle segmentation detection, map from depth, `grasp.select.select_grasp`,
+physics grasp-and-lift with `sim.grasp_exec`) runs once with the paper's constraints and
+once without. Prints JSON lines (grasp.*) and, with --out, one JSON line per trial.
+
+Run: `.venv/bin/python benchmarks/bench_grasp.py [--count N] [--levels 1 2 3 4] [--out f.jsonl]`.
+`make bench` runs the default (2 scenes per level, a few minutes); the figures in
+docs/grasping.md used --count 20 (all 80 default scenes).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+
+os.environ.setdefault("MUJOCO_GL", "egl")
+
+import numpy as np
+
+from compass_manip.bench.stats import emit_samples, emit_value, load_average
+from compass_manip.grasp.select import GraspSelectConfig
+from compass_manip.sim.certify import certified_scene
+from compass_manip.sim.grasp_only import GraspOnlyConfig, run_grasp_only
+
+
+def trial_record(level: int, index: int, constrained: bool, r, wall: float) -> dict:
+    s, o = r.selection, r.outcome
+    return {
+        "level": level, "index": index, "constrained": constrained, "success": bool(r.success),
+        "view_found": r.q_view is not None, "visibility": round(float(r.visibility), 3),
+        "n_target_points": r.n_target_points,
+        "selection_failure": None if s is None or s.failure is None else s.failure.name,
+        "exec_failure": None if o is None or o.failure is None else o.failure.name,
+        "score": None if s is None else s.score, "gpq": None if s is None else round(s.gpq, 4),
+        "approach_angle_deg": None if s is None or s.failure is not None else round(float(np.degrees(s.approach_angle)), 1),
+        "ik_free": None if s is None else s.ik_free,
+        "n_candidates": None if s is None else s.n_candidates,
+        "rejections": None if s is None else {k.name: v for k, v in s.rejections.items()},
+        "select_time_s": None if s is None else round(s.time_s, 4),
+        "plan_time_s": None if s is None else round(s.plan_time_s, 4),
+        "collisions": [] if o is None else [f"{c.phase}:{c.robot_geom}->{c.other_geom}" for c in o.collisions],
+        "lift_height": None if o is None else round(o.lift_height, 4),
+        "hold_height": None if o is None else round(o.hold_height, 4),
+        "wall_s": round(wall, 2),
+    }
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--count", type=int, default=2, help="scenes per level (default 2)")
+    ap.add_argument("--start", type=int, default=0, help="first scene index (default 0)")
+    ap.add_argument("--levels", type=int, nargs="+", default=[1, 2, 3, 4])
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--out", default=None, help="append one JSON line per trial to this file")
+    ap.add_argument("--variants", default="on,off", help="on, off or on,off")
+    args = ap.parse_args()
+    variants = [v == "on" for v in args.variants.split(",")]
+    recs = []
+    for level in args.levels:
+        for index in range(args.start, args.start + args.count):
+            scene = certified_scene(level, index, args.seed).scene
+            for constrained in variants:
+                cfg = GraspOnlyConfig(select=GraspSelectConfig(constrained=constrained))
+                t0 = time.perf_counter()
+                r = run_grasp_only(scene, cfg, seed=args.seed)
+                rec = trial_record(level, index, constrained, r, time.perf_counter() - t0)
+                recs.append(rec)
+                print(json.dumps(rec), file=sys.stderr, flush=True)
+                if args.out:
+                    with open(args.out, "a") as f:
+                        f.write(json.dumps(rec) + "\n")
+    summarize(recs, len(args.levels) * args.count)
+    return 0
+
+
+def summarize(recs: list[dict], n_scenes: int) -> None:
+    ctx = {"scenes": n_scenes, "load": load_average()}
+    for constrained, tag in ((True, "on"), (False, "off")):
+        rs = [r for r in recs if r["constrained"] is constrained]
+        if not rs:
+            continue
+        n = len(rs)
+        emit_value(f"grasp.success_rate.constraints_{tag}", sum(r["success"] for r in rs) / n, "fraction", n=n, **ctx)
+        emit_value(f"grasp.collision_trials.constraints_{tag}", sum(bool(r["collisions"]) for r in rs), "trials",
+                   n=n, **ctx)
+        sel = [r for r in rs if r["select_time_s"] is not None]
+        emit_samples(f"grasp.select_time.constraints_{tag}", [1e3 * r["select_time_s"] for r in sel], "ms", **ctx)
+        ok = [r["gpq"] for r in rs if r["selection_failure"] is None and r["gpq"] is not None]
+        if ok:
+            emit_value(f"grasp.gpq_mean.constraints_{tag}", float(np.mean(ok)), "gpq", n=len(ok), **ctx)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

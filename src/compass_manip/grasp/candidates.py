@@ -1,0 +1,217 @@
+"""Antipodal parallel-jaw grasp candidates on the target model, scored as GraspNet labels
+grasps, and the plug-in point for a learned grasp network.
+
+A candidate is the paper's g = (e, w, s): e the TCP pose (hand frame convention: z the
+approach, from the palm towards the fingertips; y the closing line; x = y x z), w the
+contact width [m] and s the GraspNet score (`quality.graspnet_score`). Sampling: a first
+contact p1 on the surface, the closing direction into the object along its inward normal,
+the second contact p2 the farthest surface point on that line (within `line_radius`) whose
+normal faces along it; the pair is kept when w fits the hand with clearance, nothing of the
+target lies outside the contacts on the closing line, and nothing of it reaches the palm.
+Each pair gives `n_rolls` approach directions around the closing line, each with the hand
+both ways round (the fingers are symmetric; the wrist camera on one side of the hand is not).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Protocol
+
+import numpy as np
+
+from ..errors import CompassInputError
+from ..geometry import make_T
+from ..robot.model import GRIPPER_MAX_WIDTH
+from .quality import graspnet_score
+from .target import TargetModel
+
+#: Length [m] of the Panda fingers from the TCP (pad centre) back to the palm, less a margin.
+PALM_DEPTH = 0.035
+#: Half the width [m] of the fingers across the closing line (x of the hand frame).
+FINGER_HALF_WIDTH = 0.01
+
+
+@dataclass(frozen=True)
+class CandidateConfig:
+    """n_contacts first contacts sampled; n_directions closing directions per first contact:
+    the inward normal and n_directions - 1 drawn within `cone` [rad] of it (GraspNet labels
+    the whole spectrum of friction needs, not only perfect antipodal pairs); n_rolls approach directions per contact pair;
+    line_radius [m]: second-contact search radius around the closing line; width_clearance
+    [m]: free opening beyond the contacts on each side (w + 2 clearance <= 0.08 m);
+    min_width [m]; depths [m]: TCP offsets along the approach past the contact midpoint."""
+
+    n_contacts: int = 120
+    n_directions: int = 4
+    cone: float = 0.75
+    n_rolls: int = 16
+    line_radius: float = 0.004
+    width_clearance: float = 0.006
+    min_width: float = 0.01
+    depths: tuple[float, ...] = (0.0,)
+
+    def __post_init__(self) -> None:
+        if not 1 <= self.n_directions <= 100 or not 0.0 <= self.cone < np.pi / 2:
+            raise CompassInputError(f"n_directions {self.n_directions} / cone {self.cone} rad not allowed; "
+                                    "use 1..100 and [0, pi/2)")
+        if not 1 <= self.n_contacts <= 100000 or not 1 <= self.n_rolls <= 360:
+            raise CompassInputError(f"n_contacts {self.n_contacts} / n_rolls {self.n_rolls} not allowed; "
+                                    "use 1..100000 and 1..360")
+        if not 0.0 <= 2 * self.width_clearance + self.min_width < GRIPPER_MAX_WIDTH:
+            raise CompassInputError(f"min_width {self.min_width} m + 2 x width_clearance {self.width_clearance} m "
+                                    f"must stay below the hand's opening {GRIPPER_MAX_WIDTH} m")
+
+    @property
+    def max_width(self) -> float:
+        """Widest contact pair [m] accepted."""
+        return GRIPPER_MAX_WIDTH - 2 * self.width_clearance
+
+
+@dataclass(frozen=True, eq=False)
+class GraspCandidates:
+    """M candidates: T_world_tcp (M,4,4), width (M,) [m], score (M,) GraspNet s, contacts
+    p1, p2 (M,3) [m] and their outward normals n1, n2 (M,3)."""
+
+    T_world_tcp: np.ndarray
+    width: np.ndarray
+    score: np.ndarray
+    p1: np.ndarray
+    p2: np.ndarray
+    n1: np.ndarray
+    n2: np.ndarray
+
+    def __len__(self) -> int:
+        return int(self.width.shape[0])
+
+    @property
+    def approach(self) -> np.ndarray:
+        """(M,3) approach directions (z of the TCP frame)."""
+        return self.T_world_tcp[:, :3, 2]
+
+    def take(self, idx) -> "GraspCandidates":
+        idx = np.asarray(idx, dtype=np.int64)
+        return GraspCandidates(*(a[idx] for a in (self.T_world_tcp, self.width, self.score, self.p1, self.p2,
+                                                 self.n1, self.n2)))
+
+    @classmethod
+    def empty(cls) -> "GraspCandidates":
+        z = np.zeros((0, 3))
+        return cls(np.zeros((0, 4, 4)), np.zeros(0), np.zeros(0), z, z, z, z)
+
+
+class GraspProposer(Protocol):
+    """The plug-in point for a learned grasp network (GraspNet, Contact-GraspNet, ...):
+    anything that turns a target model into scored candidates. A network's own scores may
+    be kept, or its contacts re-scored with `quality.graspnet_score` for comparability."""
+
+    def propose(self, target: TargetModel, rng: np.random.Generator) -> GraspCandidates: ...
+
+
+class AntipodalProposer:
+    """The analytic proposer: antipodal sampling + GraspNet's force-closure score."""
+
+    def __init__(self, config: CandidateConfig | None = None):
+        self.config = config or CandidateConfig()
+
+    def propose(self, target: TargetModel, rng: np.random.Generator) -> GraspCandidates:
+        return antipodal_candidates(target, self.config, rng)
+
+
+def contact_pairs(points: np.ndarray, normals: np.ndarray, first: np.ndarray, config: CandidateConfig,
+                  directions: np.ndarray | None = None):
+    """For first-contact indices and closing directions (default: the inward normals), the
+    partner index (-1 where none) and width [m]."""
+    P, N = points, normals
+    out_j = np.full(len(first), -1, dtype=np.int64)
+    dirs = -N[first] if directions is None else directions
+    for k, i in enumerate(first):
+        c = dirs[k]  # closing direction into the object
+        d = P - P[i]
+        t = d @ c
+        perp = np.linalg.norm(d - t[:, None] * c, axis=1)
+        on_line = perp <= config.line_radius
+        if np.any(on_line & (t < -config.line_radius)):
+            continue  # target surface outside p1 on the closing line: p1 is not outermost
+        far = on_line & (N @ c > 0.0) & (t >= config.min_width)
+        if not far.any():
+            continue
+        j = int(np.argmax(np.where(far, t, -np.inf)))
+        if np.any(on_line & (t > t[j] + config.line_radius)):
+            continue
+        out_j[k] = j
+    ok = out_j >= 0
+    width = np.zeros(len(first))
+    width[ok] = np.linalg.norm(P[out_j[ok]] - P[first[ok]], axis=1)
+    return out_j, width
+
+
+def closing_directions(normals: np.ndarray, first: np.ndarray, config: CandidateConfig,
+                       rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """First-contact indices repeated n_directions times and their closing directions: the
+    inward normal, then directions uniform in angle within `cone` [rad] of it."""
+    idx = np.repeat(first, config.n_directions)
+    c = -normals[idx]
+    e1, e2 = _perp_basis(c)
+    th = rng.uniform(0.0, config.cone, len(idx))
+    th[:: config.n_directions] = 0.0
+    ph = rng.uniform(0.0, 2 * np.pi, len(idx))
+    d = np.cos(th)[:, None] * c + np.sin(th)[:, None] * (np.cos(ph)[:, None] * e1 + np.sin(ph)[:, None] * e2)
+    return idx, d / np.linalg.norm(d, axis=1, keepdims=True)
+
+
+def _perp_basis(y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    ref = np.where(np.abs(y[:, 2:3]) < 0.9, np.array([[0.0, 0.0, 1.0]]), np.array([[1.0, 0.0, 0.0]]))
+    e1 = np.cross(y, ref)
+    e1 /= np.linalg.norm(e1, axis=1, keepdims=True)
+    return e1, np.cross(y, e1)
+
+
+def palm_clear(points: np.ndarray, T_world_tcp: np.ndarray, width: np.ndarray) -> np.ndarray:
+    """(M,) True where no target point lies between the fingers deeper than PALM_DEPTH
+    behind the TCP (it would be pushed by the palm, which the map cannot stop: the
+    target's own voxels are carved for the fingers)."""
+    out = np.ones(len(T_world_tcp), dtype=bool)
+    for m, T in enumerate(T_world_tcp):
+        loc = (points - T[:3, 3]) @ T[:3, :3]
+        inside = (np.abs(loc[:, 0]) <= FINGER_HALF_WIDTH + 0.01) & (np.abs(loc[:, 1]) <= 0.5 * width[m] + 0.01)
+        out[m] = not np.any(inside & (loc[:, 2] < -PALM_DEPTH))
+    return out
+
+
+def antipodal_candidates(target: TargetModel, config: CandidateConfig | None = None,
+                         rng: np.random.Generator | None = None) -> GraspCandidates:
+    """Scored antipodal candidates on the target model (see the module doc). Only
+    force-closure pairs (s > 0) within the hand's opening are returned."""
+    config = config or CandidateConfig()
+    if rng is None:
+        raise CompassInputError("antipodal_candidates needs an explicit np.random.Generator (rng)")
+    P, N = target.points, target.normals
+    first = rng.choice(len(P), size=min(config.n_contacts, len(P)), replace=False)
+    first, dirs = closing_directions(N, first, config, rng)
+    partner, width = contact_pairs(P, N, first, config, dirs)
+    ok = (partner >= 0) & (width <= config.max_width)
+    i, j, width = first[ok], partner[ok], width[ok]
+    if len(i) == 0:
+        return GraspCandidates.empty()
+    p1, p2, n1, n2 = P[i], P[j], N[i], N[j]
+    score = graspnet_score(p1, p2, n1, n2)
+    keep = score > 0
+    p1, p2, n1, n2, width, score = p1[keep], p2[keep], n1[keep], n2[keep], width[keep], score[keep]
+    if len(p1) == 0:
+        return GraspCandidates.empty()
+    y = (p2 - p1) / width[:, None]
+    e1, e2 = _perp_basis(y)
+    mid = 0.5 * (p1 + p2)
+    rolls = np.arange(config.n_rolls) * (2 * np.pi / config.n_rolls)
+    Ts, idx = [], []
+    for k in range(len(p1)):
+        for r in rolls:
+            a = np.cos(r) * e1[k] + np.sin(r) * e2[k]
+            for sign in (1.0, -1.0):  # the hand is symmetric, its wrist camera is not
+                yk = sign * y[k]
+                for d in config.depths:
+                    Ts.append(make_T(np.column_stack([np.cross(yk, a), yk, a]), mid[k] + d * a))
+                    idx.append(k)
+    T = np.array(Ts)
+    idx = np.array(idx)
+    clear = palm_clear(P, T, width[idx])
+    T, idx = T[clear], idx[clear]
+    return GraspCandidates(T, width[idx], score[idx], p1[idx], p2[idx], n1[idx], n2[idx])

@@ -1,0 +1,413 @@
+"""The paper's constrained grasp selection (Eq. 6) and its Grasp Pose Quality (GPQ).
+
+    max_g s_g  s.t.  IK(e_g) in Q_free,  angle(z_g, n) <= delta,  FK(tau(q_cur, q_grasp)) in M_free
+
+Q_free and M_free are taken against the map with unknown space unsafe and the target's own
+volume carved (`carve.py`). The path constraint covers the whole manoeuvre: a planned path
+from q_current to the pre-grasp, the straight approach along the gripper's z, and the lift
+(arm and held target). The desired approach n comes from the confined space's opening (the
+hand enters against `outward`) made perpendicular to the target's long axis when it has one.
+Candidates are tried by score (ties: the smaller approach angle in 10 deg bins first, then
+the higher grasp point); among the feasible
+ones of the best score the planner takes any goal it reaches.
+
+With `constrained=False` (the paper's ablation) the highest-scored candidate with any IK
+solution inside the joint limits is taken (ties broken at random), whatever the map and the
+approach angle say; the way to its pre-grasp is still planned, as the paper's MoveIt does it:
+on the map with unknown space free (occupied voxels stay obstacles). Approach and lift are
+not checked.
+"""
+from __future__ import annotations
+
+import math
+import time
+from collections import Counter
+from dataclasses import dataclass, field
+from enum import Enum
+
+import numpy as np
+
+from ..errors import CompassInputError
+from ..geometry import make_T
+from ..mapping.distance import DistanceField
+from ..mapping.occupancy import OccupancyMap, VoxelState
+from ..motion.planner import PlannerConfig, plan
+from ..motion.primitives import DistanceGrid
+from ..motion.validity import ValidityChecker, ValidityConfig
+from ..robot.ik import PandaIK
+from ..robot.model import Q_MAX, Q_MIN, check_q
+from ..robot.spheres import SphereModel
+from ..task import Task
+from .candidates import AntipodalProposer, CandidateConfig, GraspCandidates, GraspProposer
+from .carve import grasp_field
+from .target import TargetModel
+
+
+class Rejection(Enum):
+    """Why one candidate was rejected."""
+
+    APPROACH_ANGLE = "approach more than delta from the desired direction"
+    HAND_IN_COLLISION = "the hand collides with the map at the grasp pose"
+    HAND_APPROACH_BLOCKED = "the hand collides with the map on its way in from the pre-grasp"
+    HAND_LIFT_BLOCKED = "the hand collides with the map on its way up"
+    NO_IK = "no IK solution within the joint limits"
+    IK_IN_COLLISION = "every IK solution collides with the map"
+    PREGRASP_BLOCKED = "no collision-free pre-grasp next to the grasp configuration"
+    APPROACH_BLOCKED = "the straight approach from the pre-grasp collides"
+    LIFT_BLOCKED = "the lift collides (arm or held target)"
+    NO_PATH = "no collision-free path from the current configuration"
+
+
+class GraspFailure(Enum):
+    """Why no grasp was selected."""
+
+    NO_CANDIDATE = "no force-closure candidate on the target"
+    NO_APPROACH = "no candidate within delta of the desired approach"
+    NO_IK = "no candidate has a collision-free IK solution"
+    NO_APPROACH_PATH = "no candidate has a free pre-grasp, approach and lift"
+    NO_PATH = "no collision-free path to any feasible candidate"
+
+
+@dataclass(frozen=True)
+class GraspSelectConfig:
+    """constrained: apply Eq. 6's constraints (False: the paper's ablation); max_approach_angle
+    delta [rad]; pregrasp_distance [m] back along the approach; lift_height [m]; clearance [m]
+    of the target carve; robot_clearance [m] added to the robot's spheres at q_current when
+    its own volume is marked safe; n_q7 IK samples; max_ik_solutions tried per candidate;
+    max_feasible feasible candidates gathered before planning; max_checked candidates checked
+    at most; max_joint_step [rad] between grasp and pre-grasp/lift configurations (a straight
+    approach); voxel_extent: unsafe voxels are cubes (the checker subtracts half a voxel
+    diagonal) rather than points at their centres; planner: settings of the path to the pre-grasp."""
+
+    constrained: bool = True
+    max_approach_angle: float = math.radians(50.0)
+    pregrasp_distance: float = 0.10
+    lift_height: float = 0.10
+    clearance: float = 0.055
+    robot_clearance: float = 0.02
+    n_q7: int = 8
+    max_ik_solutions: int = 3
+    max_feasible: int = 4
+    max_checked: int = 60
+    max_joint_step: float = 0.6
+    voxel_extent: bool = True
+    candidates: CandidateConfig = field(default_factory=CandidateConfig)
+    planner: PlannerConfig = field(default_factory=lambda: PlannerConfig(time_budget=0.5))
+
+    def __post_init__(self) -> None:
+        if not 0.0 < self.max_approach_angle <= math.pi:
+            raise CompassInputError(f"max_approach_angle {self.max_approach_angle} rad is not allowed; use (0, pi]")
+        if not 0.02 <= self.pregrasp_distance <= 0.3 or not 0.0 <= self.lift_height <= 0.3:
+            raise CompassInputError(f"pregrasp_distance {self.pregrasp_distance} m / lift_height {self.lift_height} m "
+                                    "not allowed; use 0.02..0.3 m and 0..0.3 m")
+        if not 0.0 <= self.clearance <= 0.1:
+            raise CompassInputError(f"clearance {self.clearance} m is not allowed; use 0..0.1 m")
+        if not 1 <= self.max_feasible <= 100 or not 1 <= self.max_checked <= 100000:
+            raise CompassInputError("max_feasible must be 1..100 and max_checked 1..100000")
+
+
+@dataclass(frozen=True, eq=False)
+class GraspSelection:
+    """The selected grasp and how it was found.
+
+    T_world_tcp (4,4), width [m] and score s of the chosen candidate (None on failure);
+    q_grasp, q_pregrasp, q_lift (7,) [rad]; path (n,7) [rad] from q_current to q_pregrasp;
+    approach_angle [rad] between z_g and n; ik_free: q_grasp is free in the map;
+    gpq = s * 1[ik_free] * cos(approach_angle); n desired approach; n_candidates proposed;
+    rejections: count per `Rejection`; time_s selection wall time [s] (plan_time_s of it
+    in the planner); failure: None on success."""
+
+    T_world_tcp: np.ndarray | None
+    width: float
+    score: float
+    q_grasp: np.ndarray | None
+    q_pregrasp: np.ndarray | None
+    q_lift: np.ndarray | None
+    path: np.ndarray | None
+    approach_angle: float
+    ik_free: bool
+    gpq: float
+    n: np.ndarray
+    n_candidates: int
+    rejections: dict
+    time_s: float
+    plan_time_s: float
+    failure: GraspFailure | None
+
+    @property
+    def success(self) -> bool:
+        return self.failure is None
+
+
+def desired_approach(target: TargetModel, task: Task, tilt: float = math.radians(45.0),
+                     elongation: float = 1.3) -> np.ndarray:
+    """Unit approach direction n from the confined space's opening and the target's axes.
+
+    The hand enters the space against its `outward` direction. An upright target (long axis
+    within 30 deg of vertical) is grasped across that axis, from the opening and tilted down
+    by `tilt` [rad]: an arm reaching into a cabinet over the things in front of the target
+    pitches down, and coming in level is still within delta. Any other elongated target
+    gets the opening direction made perpendicular to its long axis, so the fingers close
+    across it, not along it."""
+    a = -np.asarray(task.space.outward, dtype=np.float64)
+    a /= np.linalg.norm(a)
+    m = target.axes[:, 0]
+    if target.extents[0] > elongation * target.extents[1]:
+        if abs(m[2]) > math.cos(math.radians(30.0)):
+            h = a - (a @ np.array([0.0, 0.0, 1.0])) * np.array([0.0, 0.0, 1.0])
+            if np.linalg.norm(h) > 1e-6:
+                h /= np.linalg.norm(h)
+                return math.cos(tilt) * h - math.sin(tilt) * np.array([0.0, 0.0, 1.0])
+        p = a - (a @ m) * m
+        if np.linalg.norm(p) > 0.2:
+            a = p / np.linalg.norm(p)
+    return a
+
+
+def approach_angles(cands: GraspCandidates, n: np.ndarray) -> np.ndarray:
+    """(M,) angle [rad] between each candidate's approach (TCP z) and n."""
+    return np.arccos(np.clip(cands.approach @ n, -1.0, 1.0))
+
+
+def gpq(score: float, ik_free: bool, angle: float) -> float:
+    """The paper's Grasp Pose Quality s * 1[IK(e) in Q_free] * cos(angle(z_g, n))."""
+    return float(score) * float(bool(ik_free)) * math.cos(angle)
+
+
+def base_volume(spheres: SphereModel, q_ref: np.ndarray, n_q1: int = 36, n_q2: int = 7) -> tuple[np.ndarray, np.ndarray]:
+    """Spheres (centres (S,3) [m], radii (S,) [m]) of the links up to panda_link2 swept over
+    joints 1 and 2: the robot's own space around its base column, which no camera on the
+    wrist sees and nothing else can occupy (it would collide at home already)."""
+    keep = np.isin(spheres.body_index, [spheres.link_names.index(k) for k in ("panda_link0", "panda_link1",
+                                                                               "panda_link2")])
+    q1 = np.linspace(Q_MIN[0], Q_MAX[0], n_q1)
+    q2 = np.linspace(-1.2, 1.2, n_q2)
+    Q = np.repeat(np.asarray(q_ref, dtype=np.float64)[None], n_q1 * n_q2, axis=0)
+    Q[:, 0] = np.repeat(q1, n_q2)
+    Q[:, 1] = np.tile(q2, n_q1)
+    C = spheres.sphere_centers(Q)[:, keep]
+    return C.reshape(-1, 3), np.tile(spheres.radii[keep] + 0.02, len(Q))
+
+
+def rigid_hand_spheres(spheres: SphereModel) -> tuple[np.ndarray, np.ndarray]:
+    """Spheres of the links rigid with the TCP (link7, flange, hand, camera housing, open
+    fingers) in the TCP frame: (centres (K,3) [m], radii (K,) [m]). They let a grasp pose
+    be checked against the map before any IK is solved."""
+    names = ("panda_link7", "panda_link8", "hand/panda_hand", "hand/panda_leftfinger", "hand/panda_rightfinger")
+    keep = np.isin(spheres.body_index, [spheres.link_names.index(k) for k in names if k in spheres.link_names])
+    q = np.array([0.0, -0.3, 0.0, -2.2, 0.0, 2.0, 0.785])
+    C = spheres.sphere_centers(q[None])[0][keep]
+    T = spheres.kinematics.T_world_tcp(q)
+    return (C - T[:3, 3]) @ T[:3, :3], spheres.radii[keep].copy()
+
+
+def hand_clear(field: DistanceField, T_world_tcp: np.ndarray, local: tuple[np.ndarray, np.ndarray],
+               voxel_extent: bool = True) -> np.ndarray:
+    """(M,) True where every rigid hand sphere at each TCP pose (M,4,4) clears unsafe space,
+    with the validity checker's conservative bound (nearest voxel centre, its offset and
+    half a voxel diagonal subtracted)."""
+    C, r = local
+    W = np.einsum("mij,kj->mki", T_world_tcp[:, :3, :3], C) + T_world_tcp[:, None, :3, 3]
+    res = field.resolution
+    f = (W - field.grid_min) / res - 0.5
+    i = np.floor(f + 0.5).astype(np.int64)
+    shape = np.asarray(field.distances.shape)
+    inside = np.all((i >= 0) & (i < shape), axis=-1)
+    ic = np.clip(i, 0, shape - 1)
+    d = field.distances[ic[..., 0], ic[..., 1], ic[..., 2]]
+    half = 0.5 * math.sqrt(3.0) * res if voxel_extent else 0.0
+    clear = d - np.linalg.norm(f - i, axis=-1) * res - half - r
+    return np.all(inside & (clear >= 0.0), axis=1)
+
+
+def offset_pose(T: np.ndarray, along_approach: float = 0.0, up: float = 0.0) -> np.ndarray:
+    """T moved by along_approach [m] along its z and by up [m] along world z."""
+    return make_T(T[:3, :3], T[:3, 3] + along_approach * T[:3, 2] + np.array([0.0, 0.0, up]))
+
+
+class _Checks:
+    """Per-selection context: checker, field, IK, target, config."""
+
+    def __init__(self, checker, field_, ik, target, config):
+        self.checker, self.field, self.ik, self.target, self.config = checker, field_, ik, target, config
+
+    def held_target_clear(self) -> bool:
+        """The target's points stay in safe space all along the lift (1 cm steps)."""
+        cfg = self.config
+        steps = np.arange(0.0, cfg.lift_height + 1e-9, 0.01)[1:]
+        if len(steps) == 0:
+            return True
+        pts = (self.target.points[None] + steps[:, None, None] * np.array([0.0, 0.0, 1.0])).reshape(-1, 3)
+        return bool(np.all(self.field.distance_at(pts) >= 0.5 * self.field.resolution))
+
+    def near(self, T: np.ndarray, q_ref: np.ndarray, validity) -> np.ndarray | None:
+        r = self.ik.solve(T, "tcp", q_ref, self.config.n_q7, validity, retry=False)
+        if not r.success or np.max(np.abs(r.solutions[0] - q_ref)) > self.config.max_joint_step:
+            return None
+        return r.solutions[0]
+
+    def check(self, T: np.ndarray, q_current: np.ndarray, lift_clear: bool):
+        """(q_grasp, q_pregrasp, q_lift) for one candidate pose, or (None, rejection)."""
+        cfg, chk = self.config, self.checker
+        r = self.ik.solve(T, "tcp", q_current, cfg.n_q7, None)
+        if not r.success:
+            return None, Rejection.NO_IK
+        free = chk.are_valid(r.solutions)
+        if not free.any():
+            return None, Rejection.IK_IN_COLLISION
+        reason = Rejection.PREGRASP_BLOCKED
+        for q_g in r.solutions[free][: cfg.max_ik_solutions]:
+            q_pre = self.near(offset_pose(T, -cfg.pregrasp_distance), q_g, chk)
+            if q_pre is None:
+                continue
+            if not chk.edge_valid(q_pre, q_g):
+                reason = Rejection.APPROACH_BLOCKED
+                continue
+            q_lift = self.near(offset_pose(T, up=cfg.lift_height), q_g, chk)
+            if q_lift is None or not lift_clear or not chk.edge_valid(q_g, q_lift):
+                reason = Rejection.LIFT_BLOCKED
+                continue
+            return (q_g, q_pre, q_lift), None
+        return None, reason
+
+
+def select_grasp(target: TargetModel, occ: OccupancyMap, task: Task, q_current: np.ndarray,
+                 spheres: SphereModel, config: GraspSelectConfig | None = None,
+                 rng: np.random.Generator | None = None, proposer: GraspProposer | None = None,
+                 safe_spheres: tuple[np.ndarray, np.ndarray] | None = None,
+                 ik: PandaIK | None = None, extra_safe: np.ndarray | None = None) -> GraspSelection:
+    """Select a grasp of `target` (Eq. 6) against the map `occ` from q_current (7,) [rad].
+
+    spheres: the robot's sphere model with the fingers open (the approach width);
+    proposer: candidates (default `AntipodalProposer`: the plug-in point for a learned
+    network); safe_spheres: extra robot volume known to be free, (centres (S,3), radii (S,))
+    [m] (e.g. the arm's spheres along its past path); the robot's spheres at q_current are
+    always marked safe, and so is the space around the base column (`base_volume`);
+    extra_safe: a voxel mask of the map's shape the caller takes as free. rng: explicit generator (required).
+    """
+    t0 = time.perf_counter()
+    if rng is None:
+        raise CompassInputError("select_grasp needs an explicit np.random.Generator (rng)")
+    config = config or GraspSelectConfig()
+    q_current = check_q(q_current, "q_current")
+    proposer = proposer or AntipodalProposer(config.candidates)
+    ik = ik or PandaIK(spheres.kinematics)
+    n = desired_approach(target, task)
+    cur = spheres.sphere_centers(q_current[None])[0]
+    base_c, base_r = base_volume(spheres, q_current)
+    safe_c, safe_r = np.vstack([cur, base_c]), np.r_[spheres.radii + config.robot_clearance, base_r]
+    if safe_spheres is not None:
+        safe_c = np.vstack([safe_c, np.asarray(safe_spheres[0]).reshape(-1, 3)])
+        safe_r = np.r_[safe_r, np.asarray(safe_spheres[1]).reshape(-1)]
+    field_ = grasp_field(occ, target, config.clearance, safe_spheres=(safe_c, safe_r), extra_safe=extra_safe)
+    checker = ValidityChecker(spheres, grid=DistanceGrid.from_distance_field(field_),
+                              config=ValidityConfig(voxel_extent=config.voxel_extent))
+    checks = _Checks(checker, field_, ik, target, config)
+    cands = proposer.propose(target, rng)
+    rejections: Counter = Counter()
+    plan_time = 0.0
+
+    def done(failure, idx=None, qs=None, path=None):
+        if failure is not None:
+            return GraspSelection(None, 0.0, 0.0, None, None, None, None, float("nan"), False, 0.0, n, len(cands),
+                                  dict(rejections), time.perf_counter() - t0, plan_time, failure)
+        T = cands.T_world_tcp[idx]
+        ang = float(approach_angles(cands.take([idx]), n)[0])
+        free = bool(checker.is_valid(qs[0]))
+        s = float(cands.score[idx])
+        return GraspSelection(T, float(cands.width[idx]), s, *qs, path, ang, free, gpq(s, free, ang), n,
+                              len(cands), dict(rejections), time.perf_counter() - t0, plan_time, None)
+
+    if len(cands) == 0:
+        return done(GraspFailure.NO_CANDIDATE)
+    ang = approach_angles(cands, n)
+    if not config.constrained:
+        # the paper's planner (MoveIt on the OctoMap) takes unknown space as free
+        loose = grasp_field(occ, target, config.clearance, safe_spheres=(safe_c, safe_r),
+                            extra_safe=occ.state == VoxelState.UNKNOWN)
+        plan_checker = ValidityChecker(spheres, grid=DistanceGrid.from_distance_field(loose),
+                                       config=ValidityConfig(voxel_extent=config.voxel_extent))
+        order = rng.permutation(len(cands))
+        order = order[np.argsort(-cands.score[order], kind="stable")]
+        for idx in order[: config.max_checked]:
+            r = ik.solve(cands.T_world_tcp[idx], "tcp", q_current, config.n_q7, None)
+            if not r.success:
+                rejections[Rejection.NO_IK] += 1
+                continue
+            q_g = r.solutions[0]
+            q_pre = checks.near(offset_pose(cands.T_world_tcp[idx], -config.pregrasp_distance), q_g, None)
+            q_lift = checks.near(offset_pose(cands.T_world_tcp[idx], up=config.lift_height), q_g, None)
+            if q_pre is None or q_lift is None:
+                rejections[Rejection.NO_IK] += 1
+                continue
+            res = plan(q_current, q_pre[None], plan_checker, config.planner, rng)
+            plan_time += res.plan_time_s
+            if not res.success:
+                rejections[Rejection.NO_PATH] += 1
+                return done(GraspFailure.NO_PATH)
+            return done(None, idx, (q_g, q_pre, q_lift), res.path)
+        return done(GraspFailure.NO_IK)
+
+    within = np.nonzero(ang <= config.max_approach_angle)[0]
+    rejections[Rejection.APPROACH_ANGLE] = len(cands) - len(within)
+    if len(within) == 0:
+        return done(GraspFailure.NO_APPROACH)
+    local = rigid_hand_spheres(spheres)
+    for reason, offsets in ((Rejection.HAND_IN_COLLISION, [(0.0, 0.0)]),
+                            (Rejection.HAND_APPROACH_BLOCKED,
+                             [(-f * config.pregrasp_distance, 0.0) for f in (1.0, 0.75, 0.5, 0.25)]),
+                            (Rejection.HAND_LIFT_BLOCKED, [(0.0, f * config.lift_height) for f in (0.5, 1.0)])):
+        ok = np.ones(len(within), dtype=bool)
+        for back, up in offsets:
+            T = cands.T_world_tcp[within].copy()
+            T[:, :3, 3] += back * T[:, :3, 2] + np.array([0.0, 0.0, up])
+            ok &= hand_clear(field_, T, local, config.voxel_extent)
+        rejections[reason] = int(np.count_nonzero(~ok))
+        within = within[ok]
+    if len(within) == 0:
+        return done(GraspFailure.NO_APPROACH_PATH)
+    # ties of s: the approach nearer n first (10 deg bins), then the higher grasp point
+    z = cands.T_world_tcp[within, 2, 3]
+    order = within[np.lexsort((-z, np.round(ang[within] / math.radians(10.0)), -cands.score[within]))]
+    lift_clear = checks.held_target_clear()
+    feasible: list[tuple[int, tuple]] = []
+    n_free_ik = 0
+
+    def try_plan(group):
+        nonlocal plan_time
+        goals = np.array([qs[1] for _, qs in group])
+        res = plan(q_current, goals, checker, config.planner, rng)
+        plan_time += res.plan_time_s
+        if res.success:
+            idx, qs = group[res.goal_index]
+            return done(None, idx, qs, res.path)
+        rejections[Rejection.NO_PATH] += len(group)
+        return None
+
+    for idx in order[: config.max_checked]:
+        if feasible and cands.score[idx] < cands.score[feasible[0][0]] and len(feasible) >= 1:
+            out = try_plan(feasible)  # the best score level is complete: plan to it first
+            if out is not None:
+                return out
+            feasible = []
+        qs, why = checks.check(cands.T_world_tcp[idx], q_current, lift_clear)
+        if why is not None:
+            rejections[why] += 1
+            n_free_ik += why not in (Rejection.NO_IK, Rejection.IK_IN_COLLISION)
+            continue
+        n_free_ik += 1
+        feasible.append((int(idx), qs))
+        if len(feasible) >= config.max_feasible:
+            out = try_plan(feasible)
+            if out is not None:
+                return out
+            feasible = []
+    if feasible:
+        out = try_plan(feasible)
+        if out is not None:
+            return out
+    if rejections[Rejection.NO_PATH]:
+        return done(GraspFailure.NO_PATH)
+    if n_free_ik:
+        return done(GraspFailure.NO_APPROACH_PATH)
+    return done(GraspFailure.NO_IK)

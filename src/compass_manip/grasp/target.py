@@ -1,0 +1,174 @@
+"""The target as the grasp planner sees it: surface points with outward normals, its
+principal axes, and a symmetry completion of the side the camera has not seen.
+
+Points come from the detection view (the target's pixels back-projected with depth) and,
+beyond the paper (which uses that one view), from the map's occupied voxels in the target's
+region over all views. A single view sees about half of the object; the unseen half is
+completed by mirroring the seen points through a vertical plane across the viewing
+direction (Bohg et al., "Mind the gap", ICRA 2011), placed so that the object's depth along
+the view matches the query's size where the view itself does not show it. Normals: PCA of
+the k nearest neighbours, oriented away from the estimated object centre (the targets are
+convex household objects).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from ..errors import CompassInputError
+from ..mapping.occupancy import OccupancyMap, VoxelState
+from ..task import TargetQuery
+
+
+@dataclass(frozen=True)
+class TargetConfig:
+    """voxel [m]: points are thinned to one per cube of this edge; normal_k neighbours for
+    PCA normals; fuse_map: add the map's occupied voxel centres in the target's region;
+    fuse_margin [m]: that region is the detection points' box grown by this (never
+    downwards: the support stays out); mirror: complete the unseen side by symmetry."""
+
+    voxel: float = 0.004
+    normal_k: int = 10
+    fuse_map: bool = True
+    fuse_margin: float = 0.01
+    mirror: bool = True
+
+    def __post_init__(self) -> None:
+        if not 0.0005 <= self.voxel <= 0.05:
+            raise CompassInputError(f"TargetConfig.voxel = {self.voxel} m is not allowed; use 0.0005..0.05 m")
+        if not 4 <= self.normal_k <= 100:
+            raise CompassInputError(f"TargetConfig.normal_k = {self.normal_k} is not allowed; use 4..100")
+        if not 0.0 <= self.fuse_margin <= 0.1:
+            raise CompassInputError(f"TargetConfig.fuse_margin = {self.fuse_margin} m is not allowed; use 0..0.1 m")
+
+
+@dataclass(frozen=True, eq=False)
+class TargetModel:
+    """points (N,3) [m] world surface points; normals (N,3) outward unit normals; observed
+    (N,) True for sensed points, False for symmetry-completed ones; centre (3,) [m]
+    estimated object centre; axes (3,3) principal axes as columns, largest spread first;
+    extents (3,) [m] full extents of the points along those axes; view_dir (3,) unit
+    horizontal direction from the detection camera towards the target."""
+
+    points: np.ndarray
+    normals: np.ndarray
+    observed: np.ndarray
+    centre: np.ndarray
+    axes: np.ndarray
+    extents: np.ndarray
+    view_dir: np.ndarray
+
+    @property
+    def n_points(self) -> int:
+        return int(self.points.shape[0])
+
+    @property
+    def bottom_z(self) -> float:
+        """Lowest point [m] (the support surface lies below)."""
+        return float(self.points[:, 2].min())
+
+
+def backproject(depth: np.ndarray, K: np.ndarray, T_world_cam: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """World points (M,3) [m] of the masked pixels with a valid (finite, > 0) depth [m]."""
+    depth = np.asarray(depth)
+    mask = np.asarray(mask, dtype=bool)
+    if mask.shape != depth.shape:
+        raise CompassInputError(f"mask shape {mask.shape} must equal the depth image's {depth.shape}")
+    v, u = np.nonzero(mask & np.isfinite(depth) & (depth > 0))
+    z = depth[v, u].astype(np.float64)
+    pc = np.stack([(u - K[0, 2]) / K[0, 0] * z, (v - K[1, 2]) / K[1, 1] * z, z], axis=1)
+    return pc @ T_world_cam[:3, :3].T + T_world_cam[:3, 3]
+
+
+def thin(points: np.ndarray, voxel: float) -> np.ndarray:
+    """One point (the mean) per occupied cube of edge `voxel` [m], in a deterministic order."""
+    keys = np.floor(points / voxel).astype(np.int64)
+    _, inv = np.unique(keys, axis=0, return_inverse=True)
+    inv = inv.ravel()
+    sums = np.zeros((inv.max() + 1, 3))
+    np.add.at(sums, inv, points)
+    return sums / np.bincount(inv)[:, None]
+
+
+def pca_normals(points: np.ndarray, k: int) -> np.ndarray:
+    """Unit normals (N,3) (unoriented): smallest principal direction of each point's k
+    nearest neighbours."""
+    k = min(k, len(points))
+    _, idx = cKDTree(points).query(points, k=k)
+    nb = points[idx]  # (N,k,3)
+    d = nb - nb.mean(axis=1, keepdims=True)
+    cov = np.einsum("nki,nkj->nij", d, d)
+    _, vec = np.linalg.eigh(cov)
+    return vec[:, :, 0]
+
+
+def principal_axes(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Principal axes (3,3) as columns, largest spread first (right-handed), and the full
+    extents (3,) [m] of the points along them."""
+    c = points.mean(axis=0)
+    w, vec = np.linalg.eigh(np.cov((points - c).T))
+    axes = vec[:, ::-1].copy()
+    axes[:, 2] = np.cross(axes[:, 0], axes[:, 1])
+    proj = (points - c) @ axes
+    return axes, proj.max(axis=0) - proj.min(axis=0)
+
+
+def map_points_in_region(occ: OccupancyMap, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """Centres (M,3) [m] of the map's occupied voxels whose centres lie in the box [lo, hi]."""
+    i0 = np.clip(occ.world_to_voxel(np.asarray(lo)[None])[0], 0, np.array(occ.shape) - 1)
+    i1 = np.clip(occ.world_to_voxel(np.asarray(hi)[None])[0], 0, np.array(occ.shape) - 1)
+    sub = occ.state[i0[0]:i1[0] + 1, i0[1]:i1[1] + 1, i0[2]:i1[2] + 1] == VoxelState.OCCUPIED
+    ijk = np.argwhere(sub) + i0
+    pts = occ.grid_min + (ijk + 0.5) * occ.resolution
+    return pts[np.all((pts >= lo) & (pts <= hi), axis=1)]
+
+
+def build_target_model(points: np.ndarray, camera_origin: np.ndarray, query: TargetQuery | None = None,
+                       occ: OccupancyMap | None = None, config: TargetConfig | None = None) -> TargetModel:
+    """The target model from its detected points (M,3) [m] seen from camera_origin (3,) [m].
+
+    query: the TargetQuery (its size bounds the unseen depth); occ: the occupancy map to fuse
+    (None: the detection view only, as in the paper).
+    """
+    config = config or TargetConfig()
+    pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    pts = pts[np.all(np.isfinite(pts), axis=1)]
+    if len(pts) < 10:
+        raise CompassInputError(f"a target model needs at least 10 finite points, got {len(pts)}")
+    cam = np.asarray(camera_origin, dtype=np.float64)
+    if occ is not None and config.fuse_map:
+        lo, hi = pts.min(0) - config.fuse_margin, pts.max(0) + config.fuse_margin
+        lo[2] = pts[:, 2].min() + 0.5 * occ.resolution  # never the support below
+        extra = map_points_in_region(occ, lo, hi)
+        if len(extra):
+            pts = np.vstack([pts, extra])
+    pts = thin(pts, config.voxel)
+    if len(pts) < 10:
+        raise CompassInputError(f"the target's points span fewer than 10 cubes of {config.voxel} m")
+    view = pts.mean(0) - cam
+    view[2] = 0.0
+    if np.linalg.norm(view) < 1e-6:  # looking straight down: any horizontal direction
+        view = np.array([1.0, 0.0, 0.0])
+    view /= np.linalg.norm(view)
+    along = pts @ view
+    front = float(along.min())
+    depth = float(along.max() - front)
+    if query is not None:
+        depth = max(depth, float(min(query.size[:2])))
+    plane = front + 0.5 * depth
+    centre = pts.mean(0)
+    centre += (plane - centre @ view) * view
+    normals = pca_normals(pts, config.normal_k)
+    flip = np.sum(normals * (pts - centre), axis=1) < 0
+    normals[flip] *= -1
+    observed = np.ones(len(pts), dtype=bool)
+    if config.mirror:
+        front_side = along < plane - 0.5 * config.voxel
+        mp = pts[front_side] - 2.0 * (along[front_side] - plane)[:, None] * view
+        mn = normals[front_side] - 2.0 * (normals[front_side] @ view)[:, None] * view
+        pts, normals = np.vstack([pts, mp]), np.vstack([normals, mn])
+        observed = np.r_[observed, np.zeros(len(mp), dtype=bool)]
+    axes, extents = principal_axes(pts)
+    return TargetModel(pts, normals, observed, centre, axes, extents, view)

@@ -1,0 +1,212 @@
+"""The grasp-only harness: grasp a scene's target from a view that sees it, with the
+simulator standing in for exploration and detection.
+
+Two oracle steps, labelled as such and to be replaced by the COMPASS loop:
+* ORACLE START: a reachable, collision-free wrist-camera view that sees the target well,
+  chosen with ground truth (visibility by ray casting), reached from home along a straight
+  joint path checked for ground-truth contacts;
+* ORACLE DETECTION: the target's pixels taken from the segmentation labels (to be swapped
+  for the perception detector's mask).
+Everything else is the method: the map is built from depth only (home frame, a wrist sweep
+at home, the view, optionally a short sweep there), unknown space is unsafe, the grasp is
+selected with `grasp.select.select_grasp` and executed in physics with `grasp_exec`.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..exploration.wrist_sweep import wrist_sweep
+from ..geometry import look_at, make_T, rot_z
+from ..grasp.select import GraspSelectConfig, GraspSelection, select_grasp
+from ..grasp.target import TargetModel, backproject, build_target_model, TargetConfig
+from ..mapping.observe import integrate_observation
+from ..mapping.distance import unsafe_mask
+from ..mapping.occupancy import MapConfig, OccupancyMap, VoxelState
+from ..robot.ik import ik_camera
+from ..robot.model import GRIPPER_MAX_WIDTH
+from ..robot.spheres import panda_sphere_model
+from .grasp_exec import GraspExecConfig, GraspOutcome, execute_grasp
+from .scenes import SceneSpec
+from .world import World
+
+
+@dataclass(frozen=True)
+class GraspOnlyConfig:
+    """n_view_samples camera poses tried for the oracle start; view_distance [m] range from
+    the target; min_visibility of the target from the chosen view; home_sweep / view_sweep:
+    wrist sweeps at home and at the view feeding the map; carve_margin [m] added to the
+    robot's spheres along the way it moved (marked safe in the map)."""
+
+    n_view_samples: int = 80
+    view_distance: tuple[float, float] = (0.25, 0.5)
+    min_visibility: float = 0.3
+    home_sweep: bool = True
+    view_sweep: bool = True
+    path_frames: int = 6
+    near_field_views: int = 16
+    near_body_free: bool = True
+    carve_margin: float = 0.02
+    target: TargetConfig = field(default_factory=TargetConfig)
+    select: GraspSelectConfig = field(default_factory=GraspSelectConfig)
+    execute: GraspExecConfig = field(default_factory=GraspExecConfig)
+
+
+@dataclass(frozen=True, eq=False)
+class GraspOnlyResult:
+    """q_view the oracle start (None: no view found); visibility of the target from it;
+    n_target_points detected; selection and outcome (None when not reached); map_time_s,
+    success (lifted, held, no collision)."""
+
+    q_view: np.ndarray | None
+    visibility: float
+    n_target_points: int
+    target: TargetModel | None
+    selection: GraspSelection | None
+    outcome: GraspOutcome | None
+    map_time_s: float
+
+    @property
+    def success(self) -> bool:
+        return self.outcome is not None and self.outcome.success
+
+
+def _straight_free(world: World, q0: np.ndarray, q1: np.ndarray, step: float = 0.02) -> bool:
+    n = max(1, int(np.ceil(np.max(np.abs(q1 - q0)) / step)))
+    return not any(world.in_collision(q0 + (q1 - q0) * k / n, GRIPPER_MAX_WIDTH) for k in range(n + 1))
+
+
+def oracle_view(world: World, rng: np.random.Generator, config: GraspOnlyConfig) -> tuple[np.ndarray | None, float]:
+    """ORACLE START (ground truth): the best-seeing of sampled reachable, collision-free
+    camera views of the target, in front of the opening and above the target; (q, visibility)."""
+    scene = world.scene
+    lo = np.array(scene.cabinet.interior_min)
+    hi = np.array(scene.cabinet.interior_max)
+    tgt = np.array(scene.target.pos)
+    top = tgt[2] + scene.target.half_extents[2]
+    q_home = np.asarray(world.robot.q_home)
+    best, best_vis = None, 0.0
+    for _ in range(config.n_view_samples):
+        d = rng.uniform(*config.view_distance)
+        yaw = rng.uniform(-0.8, 0.8)
+        pitch = rng.uniform(0.25, 1.3)  # looking down
+        direction = np.array([np.cos(pitch) * np.cos(yaw), np.cos(pitch) * np.sin(yaw), -np.sin(pitch)])
+        aim = tgt + np.array([0.0, 0.0, 0.25 * (top - tgt[2])])
+        eye = aim - d * direction
+        eye[2] = min(eye[2], hi[2] - 0.04) if eye[0] > lo[0] - 0.02 else eye[2]
+        T = look_at(eye, aim) @ make_T(rot_z(rng.uniform(-np.pi, np.pi)))
+        sols = ik_camera(T, q_home, n_q7=6).solutions
+        for q in sols[:2]:
+            if world.in_collision(q, GRIPPER_MAX_WIDTH) or not _straight_free(world, q_home, q):
+                continue
+            vis = world.target_visibility(q)
+            if vis > best_vis:
+                best, best_vis = q, vis
+            break
+        if best_vis >= 0.9:
+            break
+    world.set_q(q_home, GRIPPER_MAX_WIDTH)
+    if best is None or best_vis < config.min_visibility:
+        return None, best_vis
+    return best, best_vis
+
+
+def near_field_configs(world: World, rng: np.random.Generator, n: int) -> list[np.ndarray]:
+    """Up to n wrist configurations around home (joints 1-4 held, joints 5-7 uniform within
+    their limits), kept when free of ground-truth contact along the straight way from home
+    (the simulator stands in for the NFA scan's validity checks)."""
+    q_home = np.asarray(world.robot.q_home)
+    out = []
+    for _ in range(4 * n):
+        q = q_home.copy()
+        q[4] = rng.uniform(-2.5, 2.5)
+        q[5] = rng.uniform(0.3, 3.6)
+        q[6] = rng.uniform(-2.5, 2.5)
+        if not world.in_collision(q, GRIPPER_MAX_WIDTH) and _straight_free(world, q_home, q, 0.05):
+            out.append(q)
+        if len(out) >= n:
+            break
+    return out
+
+
+def near_body_unknown(occ: OccupancyMap, spheres, q_home: np.ndarray) -> np.ndarray:
+    """NEAR-BODY ASSUMPTION (stands in for the NFA scan, which the exploration branch owns):
+    unknown voxels inside the volume swept by links 0-4 around the home posture (joint 1
+    within +-1.2 rad, joints 2-4 over a grid) are taken as free. Voxels seen occupied there
+    stay unsafe. A wrist camera cannot see the space its own elbow moves through."""
+    names = ("panda_link0", "panda_link1", "panda_link2", "panda_link3", "panda_link4")
+    keep = np.isin(spheres.body_index, [spheres.link_names.index(k) for k in names])
+    grids = np.meshgrid(np.linspace(-1.2, 1.2, 9), np.linspace(-1.2, 1.0, 5), (-0.5, 0.0, 0.5),
+                        np.linspace(-3.0, -0.8, 5), indexing="ij")
+    Q = np.repeat(np.asarray(q_home, dtype=np.float64)[None], grids[0].size, axis=0)
+    for j in range(4):
+        Q[:, j] = grids[j].ravel()
+    C = spheres.sphere_centers(Q)[:, keep].reshape(-1, 3)
+    R = np.tile(spheres.radii[keep], len(Q))
+    swept = ~unsafe_mask(occ, safe_spheres=(C, R)) & (occ.state != VoxelState.FREE)
+    return swept & (occ.state == VoxelState.UNKNOWN)
+
+
+def oracle_detection(world: World, frame) -> np.ndarray:
+    """ORACLE DETECTION (ground truth): world points (M,3) [m] of the target's pixels, taken
+    from the segmentation labels."""
+    return backproject(frame.depth, frame.K, frame.T_world_cam, frame.seg == world.target_label)
+
+
+def run_grasp_only(scene: SceneSpec, config: GraspOnlyConfig | None = None, seed: int = 0,
+                   world: World | None = None) -> GraspOnlyResult:
+    """One grasp-only trial on `scene` (see the module doc); deterministic per seed."""
+    config = config or GraspOnlyConfig()
+    rng = np.random.default_rng([seed, scene.level, scene.index, 4242])
+    own = world is None
+    world = world or World(scene)
+    try:
+        q_home = np.asarray(world.robot.q_home)
+        q_view, vis = oracle_view(world, rng, config)
+        if q_view is None:
+            return GraspOnlyResult(None, vis, 0, None, None, None, 0.0)
+        t0 = time.perf_counter()
+        spheres = panda_sphere_model(world.robot)
+        occ = OccupancyMap(MapConfig())
+        moved = [q_home]
+        frames = [world.render(q_home, rgb=False, seg=False)]
+        if config.home_sweep:
+            way = wrist_sweep(q_home)
+            frames += [world.render(q, rgb=False, seg=False) for q in way[1:-1]]
+            moved += list(way)
+        for q in near_field_configs(world, rng, config.near_field_views):
+            frames.append(world.render(q, rgb=False, seg=False))
+            m = max(1, int(np.ceil(np.max(np.abs(q - q_home)) / 0.1)))
+            moved += [q_home + (q - q_home) * k / m for k in range(m + 1)]
+        n = max(1, int(np.ceil(np.max(np.abs(q_view - q_home)) / 0.05)))
+        moved += [q_home + (q_view - q_home) * k / n for k in range(n + 1)]
+        frames += [world.render(q_home + (q_view - q_home) * s, rgb=False, seg=False)
+                   for s in np.linspace(0.0, 1.0, config.path_frames + 2)[1:-1]]
+        view = world.render(q_view, rgb=False, seg=True)
+        frames.append(view)
+        if config.view_sweep:
+            way = wrist_sweep(q_view, n=6, amplitude=0.4)
+            frames += [world.render(q, rgb=False, seg=False) for q in way[1:-1]]
+            moved += list(way)
+        for f in frames:
+            integrate_observation(occ, f, spheres, world.camera.depth_max)
+        points = oracle_detection(world, view)
+        map_time = time.perf_counter() - t0
+        if len(points) < 10:
+            return GraspOnlyResult(q_view, vis, len(points), None, None, None, map_time)
+        task = scene.task()
+        target = build_target_model(points, view.T_world_cam[:3, 3], task.target, occ, config.target)
+        Q = np.asarray(moved)
+        centres = spheres.sphere_centers(Q).reshape(-1, 3)
+        radii = np.tile(spheres.radii + config.carve_margin, len(Q))
+        extra = near_body_unknown(occ, spheres, q_home) if config.near_body_free else None
+        sel = select_grasp(target, occ, task, q_view, spheres, config.select, rng, safe_spheres=(centres, radii),
+                           extra_safe=extra)
+        world.set_q(q_view, GRIPPER_MAX_WIDTH)
+        outcome = execute_grasp(world, sel, q_view, config.execute)
+        return GraspOnlyResult(q_view, vis, len(points), target, sel, outcome, map_time)
+    finally:
+        if own:
+            world.close()

@@ -1,0 +1,94 @@
+"""Antipodal candidates and the target model on synthetic objects."""
+import numpy as np
+import pytest
+
+from compass_manip.errors import CompassInputError
+from compass_manip.grasp.candidates import AntipodalProposer, CandidateConfig, antipodal_candidates
+from compass_manip.grasp.target import TargetModel, build_target_model, principal_axes
+from compass_manip.robot.model import GRIPPER_MAX_WIDTH
+from compass_manip.task import TargetQuery
+
+
+def box_surface(half, centre=(0.6, 0.0, 0.4), step=0.004):
+    """Points and outward normals on all six faces of an axis-aligned box."""
+    half, centre = np.asarray(half, float), np.asarray(centre, float)
+    pts, nrm = [], []
+    for ax in range(3):
+        u, v = [a for a in range(3) if a != ax]
+        gu = np.arange(-half[u], half[u] + 1e-9, step)
+        gv = np.arange(-half[v], half[v] + 1e-9, step)
+        U, V = np.meshgrid(gu, gv)
+        for sign in (-1.0, 1.0):
+            p = np.zeros((U.size, 3))
+            p[:, u], p[:, v], p[:, ax] = U.ravel(), V.ravel(), sign * half[ax]
+            n = np.zeros_like(p)
+            n[:, ax] = sign
+            pts.append(p + centre)
+            nrm.append(n)
+    return np.vstack(pts), np.vstack(nrm)
+
+
+def model(points, normals):
+    axes, ext = principal_axes(points)
+    return TargetModel(points, normals, np.ones(len(points), bool), points.mean(0), axes, ext, np.array([1.0, 0, 0]))
+
+
+def test_candidates_are_force_closure_within_the_hand_and_well_formed():
+    P, N = box_surface((0.02, 0.025, 0.06))
+    c = antipodal_candidates(model(P, N), CandidateConfig(n_contacts=80), np.random.default_rng(0))
+    assert len(c) > 100
+    assert np.all(c.width <= CandidateConfig().max_width + 1e-9) and np.all(c.width <= GRIPPER_MAX_WIDTH)
+    assert np.all(c.score > 0) and np.all(c.score <= 1.0)
+    R = c.T_world_tcp[:, :3, :3]
+    assert np.allclose(np.einsum("mji,mjk->mik", R, R), np.eye(3), atol=1e-9)
+    assert np.allclose(np.linalg.det(R), 1.0)
+    line = (c.p2 - c.p1) / np.linalg.norm(c.p2 - c.p1, axis=1, keepdims=True)
+    assert np.allclose(np.abs(np.sum(R[:, :, 1] * line, axis=1)), 1.0, atol=1e-9)  # y = closing line
+    assert np.allclose(c.T_world_tcp[:, :3, 3], 0.5 * (c.p1 + c.p2))
+    # face-to-face pairs across the 4 and 5 cm sides score 1.0
+    best = c.score == 1.0
+    assert best.any()
+    assert np.all(np.min(np.abs(c.width[best][:, None] - [0.04, 0.05]), axis=1) < 0.005)
+
+
+def test_candidates_never_wider_than_the_hand():
+    P, N = box_surface((0.05, 0.05, 0.05))  # a 10 cm cube: nothing fits
+    c = antipodal_candidates(model(P, N), CandidateConfig(n_contacts=200), np.random.default_rng(1))
+    assert len(c) == 0
+    P, N = box_surface((0.02, 0.06, 0.06))  # only across the 4 cm side
+    c = antipodal_candidates(model(P, N), CandidateConfig(n_contacts=200), np.random.default_rng(1))
+    assert len(c) > 0 and np.all(c.width <= CandidateConfig().max_width)
+    assert np.allclose(np.abs(c.p2[:, 0] - c.p1[:, 0]), 0.04, atol=1e-6)  # always across the 4 cm side
+
+
+def test_same_seed_same_candidates_and_rng_required():
+    P, N = box_surface((0.02, 0.025, 0.06))
+    m = model(P, N)
+    a = AntipodalProposer().propose(m, np.random.default_rng(3))
+    b = AntipodalProposer().propose(m, np.random.default_rng(3))
+    assert np.array_equal(a.T_world_tcp, b.T_world_tcp) and np.array_equal(a.score, b.score)
+    with pytest.raises(CompassInputError):
+        antipodal_candidates(m, None, None)
+
+
+def test_target_model_completes_a_half_seen_cylinder():
+    rng = np.random.default_rng(0)
+    r, c = 0.025, np.array([0.6, 0.1, 0.45])
+    cam = np.array([0.2, 0.1, 0.6])
+    phi = rng.uniform(np.pi / 2, 3 * np.pi / 2, 3000)  # the half facing the camera (-x)
+    z = rng.uniform(-0.06, 0.06, 3000)
+    pts = np.stack([c[0] + r * np.cos(phi), c[1] + r * np.sin(phi), c[2] + z], 1)
+    q = TargetQuery("cylinder", "red", (0.05, 0.05, 0.12))
+    m = build_target_model(pts, cam, q)
+    assert np.linalg.norm(m.centre[:2] - c[:2]) < 0.004  # the axis, not the seen surface's centroid
+    assert (~m.observed).sum() > 0.5 * m.observed.sum()  # the far side is completed
+    radial = m.points[:, :2] - c[:2]
+    radial /= np.linalg.norm(radial, axis=1, keepdims=True)
+    side = np.abs(m.points[:, 2] - c[2]) < 0.05
+    assert np.median(np.sum(m.normals[side, :2] * radial[side], axis=1)) > 0.95  # outward normals
+    assert abs(m.axes[2, 0]) > 0.95  # long axis vertical
+    cands = antipodal_candidates(m, CandidateConfig(n_contacts=100), rng)
+    best = cands.score == 1.0  # diameters
+    assert best.any() and np.all(np.abs(cands.width[best] - 0.05) < 0.006)
+    with pytest.raises(CompassInputError):
+        build_target_model(pts[:5], cam)
