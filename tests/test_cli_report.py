@@ -62,8 +62,8 @@ def test_bad_input_one_line_exit_2(results, tmp_path):
         ([_bad_store(tmp_path / "v999.sqlite")], "schema version 999"),
         ([str(tmp_path / "missing.sqlite")], "does not exist"),
         ([str(empty)], "holds no trials yet"),
-        ([results, "--out", str(blocker)], "is a file; give a directory"),
-        ([results, "--out", str(blocker / "sub")], "cannot be written"),
+        ([results, "--out", str(blocker)], "is an existing file, not a folder"),
+        ([results, "--out", str(blocker / "sub")], "lies under the file"),
     ]
     for args, needle in cases:
         r = _run("report", *args, "--out", str(tmp_path / "out")) if "--out" not in args else _run("report", *args)

@@ -14,7 +14,7 @@ from hypothesis import given, strategies as st
 
 from compass_manip.bench.mbm_io import load_problems
 from compass_manip.cli import main
-from compass_manip.cli.paths import check_output_dir, check_output_file
+from compass_manip.paths import check_output_dir, check_output_file
 from compass_manip.errors import CompassInputError
 
 JOINTS = [f"panda_joint{i}" for i in range(1, 8)]

@@ -9,11 +9,11 @@ before any work.
 from __future__ import annotations
 
 import os
-import tempfile
 import time
 from dataclasses import dataclass
 
 from ..errors import CompassInputError
+from ..paths import check_output_dir
 from .store import ResultsStore, TrialRecord
 from .summary import ablation_grasp, ablation_nfa, failure_breakdown, run_overview, table_one
 
@@ -29,18 +29,6 @@ class ReportFiles:
     html: str
     plots: tuple[str, ...]
     n_trials: int
-
-
-def check_out_dir(out: str) -> None:
-    """Create `out` if needed and prove it writable, or raise CompassInputError."""
-    if os.path.exists(out) and not os.path.isdir(out):
-        raise CompassInputError(f"--out {out!r} is a file; give a directory (created if missing)")
-    try:
-        os.makedirs(out, exist_ok=True)
-        with tempfile.NamedTemporaryFile(dir=out, prefix=".write-test-"):
-            pass
-    except OSError as exc:
-        raise CompassInputError(f"--out {out!r} cannot be written ({exc.strerror or exc}); give a writable directory")
 
 
 def load_records(db: str) -> tuple[list[TrialRecord], dict]:
@@ -94,7 +82,7 @@ def render_markdown(blocks, out: str) -> str:
 def write_report(db: str, out: str) -> ReportFiles:
     """Write report.md, report.html and the PNG plots for the results store `db` into `out`."""
     records, meta = load_records(db)
-    check_out_dir(out)
+    check_output_dir(out)
     from ..viz.plots import plot_explored, plot_success, plot_tft  # noqa: PLC0415 (matplotlib is slow to import)
     from ..viz.report_html import render_html  # noqa: PLC0415
 

@@ -6,6 +6,7 @@ import os
 import sys
 
 from ..errors import CompassInputError
+from ..paths import check_output_dir
 
 HELP = "run one trial of an exploration method and print its metrics"
 
@@ -22,18 +23,8 @@ def add_arguments(p) -> None:
 
 
 def check_out(out: str | None) -> str | None:
-    """The output folder, created; one-line CompassInputError if it cannot be written."""
-    if out is None:
-        return None
-    if os.path.exists(out) and not os.path.isdir(out):
-        raise CompassInputError(f"--out {out!r} exists and is not a folder")
-    try:
-        os.makedirs(out, exist_ok=True)
-    except OSError as exc:
-        raise CompassInputError(f"--out {out!r} cannot be created: {exc.strerror}") from exc
-    if not os.access(out, os.W_OK):
-        raise CompassInputError(f"--out {out!r} is not writable")
-    return out
+    """The output folder (created), or None; one-line CompassInputError if it cannot be written."""
+    return None if out is None else check_output_dir(out)
 
 
 def run(args) -> int:

@@ -12,7 +12,7 @@ from __future__ import annotations
 import os
 import tempfile
 
-from ..errors import CompassInputError
+from .errors import CompassInputError
 
 
 def check_output_dir(path: str | os.PathLike, option: str = "--out") -> str:
