@@ -51,11 +51,13 @@ class CertFailure(enum.Enum):
 
 @dataclass(frozen=True)
 class CertifyConfig:
-    """Sampling budget and thresholds of the certification. n_views camera poses, n_configs
+    """Sampling budget and thresholds of the certification. n_views camera poses (the uniform
+    sample of the view statistics) out of n_view_poses (all searched for a good view), n_configs
     random configurations (uniform +-config_noise [rad] per joint about home), margin [m] of
     the sphere checker, plan_time_s [s] per planning query, max_grasp_candidates tried."""
 
     n_views: int = 40
+    n_view_poses: int = 240
     n_configs: int = 150
     config_noise: float = 0.5
     min_view_visibility: float = 0.3
@@ -158,17 +160,23 @@ def sample_view_poses(scene: SceneSpec, n: int, rng: np.random.Generator) -> lis
 
 
 def _views(world: World, config: CertifyConfig, rng, ik, full, without) -> _Views:
+    """Visibility of n_view_poses sampled poses (cheap, by ray casting); IK and collision checks
+    for the first n_views (the uniform sample behind the statistics) and for every further
+    pose that sees enough (the search for a good view)."""
     home = np.asarray(world.robot.q_home)
-    vis, q_full, n_without = [], [], 0
-    for T in sample_view_poses(world.scene, config.n_views, rng):
-        v = world.visibility_from(T, with_robot=False)
+    poses = sample_view_poses(world.scene, config.n_view_poses, rng)
+    vis = np.array([world.visibility_from(T, with_robot=False) for T in poses])
+    q_full, n_without = [], 0
+    for i, T in enumerate(poses):
+        if i >= config.n_views and vis[i] < config.min_view_visibility:
+            q_full.append(np.zeros((0, 7)))
+            continue
         S = ik.solve(T, "cam", home, config.n_q7, retry=False).solutions
         ok = full.are_valid(S) if len(S) else np.zeros(0, bool)
-        vis.append(v)
         q_full.append(S[ok])
-        if without is not None and len(S) and v >= config.min_view_visibility and without.are_valid(S).any():
+        if without is not None and len(S) and vis[i] >= config.min_view_visibility and without.are_valid(S).any():
             n_without += 1
-    return _Views(np.array(vis), q_full, n_without)
+    return _Views(vis, q_full, n_without)
 
 
 def _monotonic(kin, path: np.ndarray, target: np.ndarray, step: float = 0.02) -> bool:
@@ -234,8 +242,9 @@ def _certify(scene: SceneSpec, config: CertifyConfig, world: World, t0: float) -
     views = _views(world, config, rng, ik, full, without)
     reach = np.array([len(q) > 0 for q in views.q_full])
     good = reach & (views.vis >= config.min_view_visibility)
-    rec.update(n_valid_views=int(reach.sum()),
-               view_visibility_fraction=float(good.sum() / reach.sum()) if reach.any() else 0.0,
+    r40, g40 = reach[:config.n_views], good[:config.n_views]  # the uniform sample
+    rec.update(n_valid_views=int(r40.sum()),
+               view_visibility_fraction=float(g40.sum() / r40.sum()) if r40.any() else 0.0,
                best_view_visibility=float(views.vis[reach].max()) if reach.any() else 0.0)
     if obstacles:
         rec["views_removed_by_obstacles"] = 1.0 - good.sum() / views.n_good_without if views.n_good_without else 0.0
@@ -244,16 +253,16 @@ def _certify(scene: SceneSpec, config: CertifyConfig, world: World, t0: float) -
         return done(CertFailure.NO_VIEW_SEES_TARGET)
     goals = np.vstack([views.q_full[i] for i in np.nonzero(good)[0]])
     goals = goals[np.argsort(np.linalg.norm(goals - home, axis=1), kind="stable")][:24]
-    grasps, n_without = _grasps(world, config, ik, full, no_target, obstacles)
+    grasps, n_with, n_without = _grasps(world, config, ik, full, no_target, obstacles)
     if obstacles:
-        rec["grasps_removed_by_obstacles"] = 1.0 - len(grasps) / n_without if n_without else 0.0
+        rec["grasps_removed_by_obstacles"] = 1.0 - n_with / n_without if n_without else 0.0
     lap("grasps")
     if not grasps:
         return done(CertFailure.NO_GRASP)
     if obstacles:
-        n_with = int(good.sum()) + len(grasps)
+        n_all = int(good.sum()) + n_with
         n_wo = views.n_good_without + n_without
-        if n_wo == 0 or 1.0 - n_with / n_wo < config.min_obstacle_removal:
+        if n_wo == 0 or 1.0 - n_all / n_wo < config.min_obstacle_removal:
             return done(CertFailure.OBSTACLES_TOO_WEAK)
     planner = PlannerConfig(time_budget=config.plan_time_s)
     path1 = None
@@ -305,12 +314,12 @@ def _line(a: np.ndarray, b: np.ndarray, duration: float = 1.2) -> Trajectory:
 
 
 def _grasps(world: World, config: CertifyConfig, ik, full, no_target, obstacles: bool):
-    """Valid ground-truth grasps (at most 4 kept) and, with base obstacles, the number of
-    candidates valid without them (all candidates are then evaluated)."""
+    """Valid ground-truth grasps (at most 4 kept unless counting) and, with base obstacles, the
+    number of candidates valid with and without them (all candidates are then evaluated)."""
     scene = world.scene
     home = np.asarray(world.robot.q_home)
     found: list[GroundTruthGrasp] = []
-    n_without = 0
+    n_with = n_without = 0
     if obstacles:
         full_wo = oracle.ground_truth_checker(scene, base_obstacles=False, margin=config.margin)
         nt_wo = oracle.ground_truth_checker(scene, exclude_target=True, base_obstacles=False, margin=config.margin)
@@ -319,11 +328,12 @@ def _grasps(world: World, config: CertifyConfig, ik, full, no_target, obstacles:
         g = oracle.first_valid_grasp(ik, T, sols, full, no_target, world)
         if g is not None:
             found.append(GroundTruthGrasp(T, deg, *g))
-        if obstacles:
-            n_without += oracle.first_valid_grasp(ik, T, sols, full_wo, nt_wo, world) is not None
+        if obstacles:  # counted with the sphere model alone, with and without the base obstacles
+            n_with += oracle.first_valid_grasp(ik, T, sols, full, no_target) is not None
+            n_without += oracle.first_valid_grasp(ik, T, sols, full_wo, nt_wo) is not None
         elif len(found) >= 4:
             break
-    return found, n_without
+    return found, n_with, n_without
 
 
 def certified_scene(level: int, index: int, seed: int = 0, config: CertifyConfig | None = None) -> CertifiedScene:

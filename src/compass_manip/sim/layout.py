@@ -45,7 +45,7 @@ def draw_cabinet(rng: np.random.Generator) -> tuple[CabinetSpec, list[Compartmen
     n_shelves = int(rng.integers(1, 4))
     clear = [_u(rng, 0.20, 0.35) for _ in range(n_shelves + 1)]
     total = sum(clear) + n_shelves * T
-    z_bottom = _u(rng, 0.12, float(np.clip(1.22 - total, 0.13, 0.42)))
+    z_bottom = _u(rng, 0.18, float(np.clip(1.25 - total, 0.19, 0.40)))
     x_front, depth = _u(rng, 0.40, 0.47), _u(rng, 0.30, 0.38)
     width, yc = _u(rng, 0.56, 0.80), _u(rng, -0.05, 0.05)
     lo = (x_front, yc - width / 2, z_bottom)
@@ -138,13 +138,23 @@ class Placer:
         self.discs.append((float(c[0]), float(c[1]), r, float(lo[2]), float(hi[2])))
 
     def add_box(self, obj: SceneObject) -> None:
-        """Add an object as several discs along its longer horizontal axis (boards, books)."""
-        lo, hi = obj.aabb()
-        ext = hi[:2] - lo[:2]
-        r = 0.5 * float(min(ext)) + 0.002
-        axis = int(np.argmax(ext))
-        n = max(1, int(np.ceil(ext[axis] / (2 * r))))
-        for k in range(n):
-            p = lo[:2] + ext / 2
-            p[axis] = lo[axis] + r + (ext[axis] - 2 * r) * (k / max(n - 1, 1))
-            self.discs.append((float(p[0]), float(p[1]), r * 1.05, float(lo[2]), float(hi[2])))
+        """Add a one-box object as discs along its longer horizontal axis (boards, books)."""
+        for d in box_discs(obj):
+            self.discs.append(d)
+
+
+def box_discs(obj: SceneObject) -> list[tuple[float, float, float, float, float]]:
+    """Discs (x, y, radius, z_lo, z_hi) [m] covering a one-box object's footprint."""
+    p = obj.parts[0]
+    hx, hy = p.size[0], p.size[1]
+    lo, hi = obj.aabb()
+    axis = np.array([np.cos(p.yaw), np.sin(p.yaw)]) if hx >= hy else np.array([-np.sin(p.yaw), np.cos(p.yaw)])
+    half_long, half_short = max(hx, hy), min(hx, hy)
+    r = half_short * 1.05 + 0.002
+    n = max(1, int(np.ceil(half_long / half_short)))
+    out = []
+    for k in range(n + 1):
+        off = -half_long + half_short + (2 * half_long - 2 * half_short) * (k / max(n, 1))
+        c = np.array(p.pos[:2]) + off * axis
+        out.append((float(c[0]), float(c[1]), float(np.hypot(r, half_long / max(n, 1))), float(lo[2]), float(hi[2])))
+    return out

@@ -27,9 +27,10 @@ import numpy as np
 
 from ..errors import CompassInputError
 from ..task import COLOURS
-from .layout import Compartment, Placer, draw_cabinet
+from .layout import Compartment, Placer, box_discs, draw_cabinet
 from .objects import (LARGE_CATEGORIES, TARGET_CATEGORIES, build_object, draw_dims, draw_mass, footprint_radius,
                       height_of, lying_book)
+from .fixed_views import Z_FRACTIONS as FV_Z_FRACTIONS
 from .scenes import Primitive, SceneObject, SceneSpec
 
 LEVELS = (1, 2, 3, 4)
@@ -58,12 +59,12 @@ def _u(rng, lo, hi) -> float:
 
 
 def _reachable(c: Compartment) -> bool:
-    return 0.30 <= c.z_floor <= 0.70 and c.clearance >= 0.19
+    return 0.20 <= c.z_floor <= 0.85 and c.clearance >= 0.19
 
 
 class _Builder:
-    def __init__(self, rng: np.random.Generator, comps: list[Compartment]):
-        self.rng, self.comps = rng, comps
+    def __init__(self, rng: np.random.Generator, cabinet, comps: list[Compartment]):
+        self.rng, self.cabinet, self.comps = rng, cabinet, comps
         self.placer = Placer()
         self.objects: list[SceneObject] = []
         self.n = 0
@@ -91,6 +92,10 @@ class _Builder:
         return None
 
 
+#: A fixed-view eye closer than this [m] to a storey's height band looks into it past the shelf.
+FV_LEVEL_MARGIN = 0.0
+#: Yaw [rad] of the approach corridor of severe targets.
+SEVERE_YAW = 0.9
 #: Room the hand needs beside a target [m]: the Panda hand is ~0.2 m wide along its closing axis.
 HAND_HALF_WIDTH = 0.115
 
@@ -115,11 +120,19 @@ def _target(b: _Builder, severe: bool) -> tuple[SceneObject, Compartment]:
         c = (corners if use_corner else normal)[int(rng.integers(len(corners if use_corner else normal)))]
         if use_corner and h > c.lip_z - c.z_floor - 0.005:
             continue
-        if c.clearance < h + (0.14 if severe else 0.10):
+        if c.clearance < h + 0.08:
+            continue
+        if _in_start_view(c, 0.5 * (c.x_lo + c.x_hi)):
             continue
         y = _u(rng, c.y_lo + HAND_HALF_WIDTH, c.y_hi - HAND_HALF_WIDTH)
-        if severe:
-            x = c.x_hi - r - _u(rng, 0.01, 0.05)
+        if severe:  # at the back, near the robot's centre line: the corridor leaves it sideways
+            x = c.x_hi - max(r, 0.085) - _u(rng, 0.005, 0.04)
+            side = 1.0 if rng.random() < 0.5 else -1.0  # the corridor's mouth leaves towards this side
+            edge = c.y_hi if side > 0 else c.y_lo
+            mouth = edge - side * _u(rng, HAND_HALF_WIDTH + 0.01, HAND_HALF_WIDTH + 0.06)
+            y = mouth - side * (x - c.x_lo) * math.tan(SEVERE_YAW)
+            if not c.y_lo + HAND_HALF_WIDTH <= y <= c.y_hi - HAND_HALF_WIDTH:
+                continue
         else:
             x = _u(rng, c.x_lo + 0.45 * (c.x_hi - c.x_lo), c.x_hi - r - 0.005)
         if not b.placer.fits(c, x, y, r, h + 0.06):  # room above for the fingers
@@ -131,64 +144,54 @@ def _target(b: _Builder, severe: bool) -> tuple[SceneObject, Compartment]:
     raise _Retry("no room for the target")
 
 
-def _keep_hand_room(b: _Builder, t: SceneObject, c: Compartment) -> None:
-    """Nothing taller than the target's top - 3 cm may stand within reach of the hand beside it."""
+def _level_with_a_fixed_view(cab, c: Compartment) -> bool:
+    """Whether an eye of the reference fixed-view set is at the height of this storey."""
+    o_lo, o_hi = cab.opening()
+    return any(c.z_floor - FV_LEVEL_MARGIN <= o_lo[2] + f * (o_hi[2] - o_lo[2]) <= c.z_ceiling + FV_LEVEL_MARGIN
+               for f in FV_Z_FRACTIONS)
+
+
+def _in_start_view(c: Compartment, x: float) -> bool:
+    """Whether a storey's middle lies within the start camera's vertical field of view (the
+    target is placed elsewhere: with the approach corridor open, nothing would hide it)."""
+    cam = START_CAMERA_POS
+    elev = math.atan2(0.5 * (c.z_floor + c.z_ceiling) - cam[2], x - cam[0])
+    return abs(elev) < START_HALF_FOV + math.radians(4.0)
+
+
+def _keep_hand_room(b: _Builder, t: SceneObject, c: Compartment, psi: float) -> None:
+    """Keep a corridor from the opening to the target (hand approach yaw psi [rad]) free of
+    anything taller than the target's top - 7 cm: the shelves above leave room only for
+    near-horizontal approaches, and the hand (~0.2 m wide) and forearm need that corridor."""
     lo, hi = t.aabb()
-    b.placer.keep_out(t.pos[0], t.pos[1], HAND_HALF_WIDTH - 0.02, hi[2] - 0.03, c.z_ceiling)
+    back = -np.array([math.cos(psi), math.sin(psi)])
+    p = np.array(t.pos[:2], dtype=float)
+    while p[0] > c.x_lo - 0.05:
+        b.placer.keep_out(p[0], p[1], HAND_HALF_WIDTH - 0.02, hi[2] - 0.07, c.z_ceiling)
+        p = p + 0.04 * back
 
 
 class _Retry(Exception):
     pass
 
 
-def _occluder_moderate(b: _Builder, t: SceneObject, c: Compartment) -> SceneObject | None:
-    """A large object between the target and a viewpoint, just tall enough to hide it."""
-    rng = b.rng
-    tp = t.pos
-    lo, hi = t.aabb()
-    mid = 0.5 * (c.z_floor + c.z_ceiling)
-    elev = math.atan2(mid - START_CAMERA_POS[2], tp[0] - START_CAMERA_POS[0])
-    if abs(elev) < START_HALF_FOV:
-        view = START_CAMERA_POS.copy()
-    else:
-        view = np.array([c.x_lo - 0.15, tp[1] + _u(rng, -0.15, 0.15), mid + _u(rng, -0.05, 0.08)])
-    d_xy = view[:2] - tp[:2]
-    u = d_xy / np.linalg.norm(d_xy)
-    category = LARGE_CATEGORIES[int(rng.integers(2))]
-    for _ in range(20):
-        dims = list(draw_dims(category, rng))
-        dist = _u(rng, 0.07, 0.11) + dims[0] / 2
-        p = tp[:2] + dist * u
-        # height hiding the target's top back edge from the viewpoint
-        far = tp[:2] - u * (hi[0] - tp[0])
-        s = np.linalg.norm(view[:2] - (p + u * dims[0] / 2)) / np.linalg.norm(view[:2] - far)
-        need = view[2] + (hi[2] - view[2]) * s - c.z_floor + 0.012
-        # about the target's height, never taller: a hand reaching over it at 15-60 deg clears it
-        dims[2] = float(np.clip(need, hi[2] - c.z_floor - _u(rng, 0.005, 0.025), hi[2] - c.z_floor - 0.003))
-        yaw = math.atan2(u[1], u[0]) + _u(rng, -0.15, 0.15)
-        obj = build_object(b.name(category), category, t.colour if False else _other_colour(rng, t.colour), tuple(dims),
-                           draw_mass(category, rng), p[0], p[1], c.z_floor, yaw, "occluder")
-        if _inside(obj, c) and _free(b, obj):
-            b.placer.add_box(obj)
-            b.objects.append(obj)
-            return obj
-    return None
-
-
-def _occluder_severe(b: _Builder, t: SceneObject, c: Compartment) -> SceneObject | None:
-    """A wide object just in front of the target, a little taller than it: from outside the
-    opening (below the storey above) nothing looks down behind it."""
+def _side_occluder(b: _Builder, t: SceneObject, c: Compartment, side: int, angle: tuple[float, float],
+                   extra_h: tuple[float, float], role: str = "occluder") -> SceneObject | None:
+    """A large object in front of the target on one side of its approach corridor (side +1:
+    +y), at `angle` [rad] from the -x direction, facing the target, taller than it by extra_h [m]."""
     rng = b.rng
     lo, hi = t.aabb()
-    for _ in range(20):
+    r_t = 0.5 * float(hi[0] - lo[0])
+    for _ in range(25):
         category = LARGE_CATEGORIES[int(rng.integers(2))]
         dims = list(draw_dims(category, rng))
-        dims[1] = max(dims[1], (hi[1] - lo[1]) + 2 * _u(rng, 0.05, 0.09))
-        dims[2] = max(hi[2] - c.z_floor + _u(rng, -0.01, 0.004), _start_hiding_height(t, c, x + dims[0] / 2))
-        x = lo[0] - _u(rng, 0.05, 0.08) - dims[0] / 2
-        y = t.pos[1] + _u(rng, -0.02, 0.02)
+        phi = _u(rng, *angle)
+        u = np.array([-math.cos(phi), side * math.sin(phi)])
+        p = t.pos[:2] + (r_t + _u(rng, 0.03, 0.07) + dims[0] / 2 + 0.06) * u
+        dims[2] = float(min(hi[2] - c.z_floor + _u(rng, *extra_h), c.clearance - 0.035))
+        yaw = math.atan2(u[1], u[0]) + _u(rng, -0.15, 0.15)
         obj = build_object(b.name(category), category, _other_colour(rng, t.colour), tuple(dims),
-                           draw_mass(category, rng), x, y, c.z_floor, _u(rng, -0.08, 0.08), "occluder")
+                           draw_mass(category, rng), p[0], p[1], c.z_floor, yaw, role)
         if _inside(obj, c) and _free(b, obj):
             b.placer.add_box(obj)
             b.objects.append(obj)
@@ -196,15 +199,53 @@ def _occluder_severe(b: _Builder, t: SceneObject, c: Compartment) -> SceneObject
     return None
 
 
-def _start_hiding_height(t: SceneObject, c: Compartment, x_occ_back: float) -> float:
-    """Height [m] above the storey's floor at which a board whose back face is at x_occ_back
-    [m] hides the target's top from the start camera (0 when the storey is out of its view)."""
+def _occluders(b: _Builder, t: SceneObject, c: Compartment, severe: bool) -> list[SceneObject]:
+    """Moderate: one large object on one side of the approach corridor (it hides the target
+    from views on that side). Severe: one on each side, closer to the corridor and taller, so
+    only views close to the corridor's axis, at the target's storey, see the target."""
+    rng = b.rng
+    side = 1 if rng.random() < 0.5 else -1
+    if not severe:
+        o = _side_occluder(b, t, c, side, (0.7, 1.2), (0.0, 0.04))
+        return [o] if o is not None else []
+    psi = _severe_yaw(t, c)
+    out = [_flank(b, t, c, s, psi, k) for k in (0, 1) for s in (side, -side)]
+    return [o for o in out if o is not None] if all(o is not None for o in out[:2]) else []
+
+
+def _severe_yaw(t: SceneObject, c: Compartment) -> float:
+    """Approach yaw [rad] of a severe target's corridor: diagonal (SEVERE_YAW, in the grasp
+    candidates' set), its mouth near a side of the opening: the corridor's line points past
+    the reference fixed views, and the start camera looks at its flank."""
+    return -SEVERE_YAW if t.pos[1] < 0.5 * (c.y_lo + c.y_hi) else SEVERE_YAW
+
+
+def _flank(b: _Builder, t: SceneObject, c: Compartment, side: int, psi: float, k: int = 0) -> SceneObject | None:
+    """A large object beside the approach corridor, its wide face along x: the target sits at
+    the end of a canyon that only a view along the corridor, at the target's storey, sees into."""
+    rng = b.rng
     lo, hi = t.aabb()
-    cam = START_CAMERA_POS
-    if abs(math.atan2(0.5 * (c.z_floor + c.z_ceiling) - cam[2], t.pos[0] - cam[0])) >= START_HALF_FOV:
-        return 0.0
-    s = (x_occ_back - cam[0]) / (hi[0] - cam[0])
-    return float(cam[2] + (hi[2] - cam[2]) * s - c.z_floor + 0.005)
+    for _ in range(25):
+        category = LARGE_CATEGORIES[int(rng.integers(2))]
+        dims = list(draw_dims(category, rng))
+        a = np.array([math.cos(psi), math.sin(psi)])
+        n = np.array([-a[1], a[0]])
+        along = r_front(t) - dims[1] / 2 - (_u(rng, 0.0, 0.05) if k == 0 else _u(rng, 0.17, 0.22))
+        p = np.array(t.pos[:2]) + along * a + side * (HAND_HALF_WIDTH - 0.02 + b.placer.gap + dims[0] / 2 + _u(rng, 0.0, 0.03)) * n
+        dims[2] = float(max(min(c.clearance - _u(rng, 0.025, 0.04), 0.30), hi[2] - c.z_floor + 0.03))
+        obj = build_object(b.name(category), category, _other_colour(rng, t.colour), tuple(dims),
+                           draw_mass(category, rng), p[0], p[1], c.z_floor, psi + math.pi / 2 + _u(rng, -0.08, 0.08),
+                           "occluder")
+        if _inside(obj, c) and _free(b, obj):
+            b.placer.add_box(obj)
+            b.objects.append(obj)
+            return obj
+    return None
+
+
+def r_front(t: SceneObject) -> float:
+    lo, hi = t.aabb()
+    return 0.5 * float(hi[0] - lo[0])
 
 
 def _inside(obj: SceneObject, c: Compartment) -> bool:
@@ -214,10 +255,7 @@ def _inside(obj: SceneObject, c: Compartment) -> bool:
 
 
 def _free(b: _Builder, obj: SceneObject) -> bool:
-    lo, hi = obj.aabb()
-    trial = Placer(b.placer.gap)
-    trial.add_box(obj)
-    for (x, y, rad, zl, zh) in trial.discs:
+    for (x, y, rad, zl, zh) in box_discs(obj):
         for (ox, oy, orad, ozl, ozh) in b.placer.discs:
             if zl < ozh and ozl < zh and math.hypot(x - ox, y - oy) < rad + orad + b.placer.gap:
                 return False
@@ -250,7 +288,7 @@ def _stack(b: _Builder, colour_ban: str) -> None:
         return
 
 
-def _base_obstacles(rng: np.random.Generator, variant: str) -> list[Primitive]:
+def _base_obstacles(rng: np.random.Generator, variant: str, z_cabinet: float) -> list[Primitive]:
     """Obstacles close to the robot's base and arm (levels 3 and 4); always at least one
     overhead or lateral constraint."""
     def box(name, half, pos):
@@ -275,7 +313,7 @@ def _base_obstacles(rng: np.random.Generator, variant: str) -> list[Primitive]:
         out.append(Primitive("base_post", "cylinder", (_u(rng, 0.025, 0.04), ph / 2),
                              (_u(rng, 0.30, 0.38), s * _u(rng, 0.22, 0.30), ph / 2), 0.0, OBSTACLE_RGBA))
     # a low block between the robot and the cabinet, under the arm's path
-    h = _u(rng, 0.25, 0.38)
+    h = min(_u(rng, 0.15, 0.3), z_cabinet - 0.06)
     out.append(box("base_block", (_u(rng, 0.06, 0.1), _u(rng, 0.1, 0.2), h / 2), (_u(rng, 0.28, 0.36), _u(rng, -0.12, 0.12), h / 2)))
     return out
 
@@ -299,13 +337,11 @@ def generate_scene(level: int, index: int, rng: np.random.Generator) -> SceneSpe
 
 def _draw(level: int, index: int, rng: np.random.Generator, severe: bool) -> SceneSpec:
     cab, comps = draw_cabinet(rng)
-    b = _Builder(rng, comps)
+    b = _Builder(rng, cab, comps)
     target, comp = _target(b, severe)
-    if not comp.corner:  # in a corner compartment its lip hides the target
-        occ = _occluder_severe(b, target, comp) if severe else _occluder_moderate(b, target, comp)
-        if occ is None:
-            raise _Retry("no occluder fits")
-    _keep_hand_room(b, target, comp)
+    _keep_hand_room(b, target, comp, _severe_yaw(target, comp) if severe else 0.0)
+    if not _occluders(b, target, comp, severe) and not comp.corner:
+        raise _Retry("no occluder fits")
     n_total = int(rng.integers(N_OBJECTS[0], N_OBJECTS[1] + 1))
     others = [c for c in COLOUR_DISTRACTOR_CATEGORIES if c != target.category]
     colour_cat = others[int(rng.integers(len(others)))]
@@ -328,7 +364,8 @@ def _draw(level: int, index: int, rng: np.random.Generator, severe: bool) -> Sce
         b.place(cat, _other_colour(rng, target.colour), "clutter", tries=8)
     if not any(o.role == "decoy" for o in b.objects) or len(b.objects) + 1 < N_OBJECTS[0]:
         raise _Retry("too few objects")
-    obstacles = _base_obstacles(rng, OBSTACLE_VARIANTS[index % len(OBSTACLE_VARIANTS)]) if level >= 3 else []
+    obstacles = _base_obstacles(rng, OBSTACLE_VARIANTS[index % len(OBSTACLE_VARIANTS)],
+                                 cab.interior_min[2]) if level >= 3 else []
     extra = {"obstacle_variant": OBSTACLE_VARIANTS[index % len(OBSTACLE_VARIANTS)] if level >= 3 else "",
              "target_row": comp.row, "target_in_corner_compartment": bool(comp.corner)}
     return SceneSpec(level=level, index=index, seed=(), cabinet=cab, target=target, clutter=tuple(b.objects),
