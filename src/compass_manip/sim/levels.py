@@ -95,7 +95,7 @@ class _Builder:
 #: A fixed-view eye closer than this [m] to a storey's height band looks into it past the shelf.
 FV_LEVEL_MARGIN = 0.0
 #: Yaw [rad] of the approach corridor of severe targets.
-SEVERE_YAW = 0.9
+SEVERE_YAW = 0.6
 #: Room the hand needs beside a target [m]: the Panda hand is ~0.2 m wide along its closing axis.
 HAND_HALF_WIDTH = 0.115
 
@@ -160,14 +160,14 @@ def _in_start_view(c: Compartment, x: float) -> bool:
 
 
 def _keep_hand_room(b: _Builder, t: SceneObject, c: Compartment, psi: float) -> None:
-    """Keep a corridor from the opening to the target (hand approach yaw psi [rad]) free of
-    anything taller than the target's top - 7 cm: the shelves above leave room only for
-    near-horizontal approaches, and the hand (~0.2 m wide) and forearm need that corridor."""
+    """Keep a corridor from the opening to the target (hand approach yaw psi [rad]) free: the
+    shelves above leave room only for near-horizontal approaches, and the hand (~0.2 m wide
+    along its closing axis) and the forearm below or above it need that corridor."""
     lo, hi = t.aabb()
     back = -np.array([math.cos(psi), math.sin(psi)])
     p = np.array(t.pos[:2], dtype=float)
     while p[0] > c.x_lo - 0.05:
-        b.placer.keep_out(p[0], p[1], HAND_HALF_WIDTH - 0.02, hi[2] - 0.07, c.z_ceiling)
+        b.placer.keep_out(p[0], p[1], HAND_HALF_WIDTH - 0.02, c.z_floor, c.z_ceiling)
         p = p + 0.04 * back
 
 

@@ -102,7 +102,8 @@ def cabinet_from_dict(d, where: str = "cabinet") -> CabinetSpec:
     inner = tuple(primitive_from_dict(p, f"{where}.inner[{i}]")
                   for i, p in enumerate(_list(_get(d, "inner", where, ()), f"{where}.inner")))
     rgba = _vec(_get(d, "rgba", where, (0.55, 0.42, 0.3, 1.0)), 4, f"{where}.rgba")
-    return _wrap(lambda: CabinetSpec(lo, hi, frame, shelves, inner, rgba), where)
+    rail = _num(_get(d, "rail", where, 0.0), f"{where}.rail")
+    return _wrap(lambda: CabinetSpec(lo, hi, frame, shelves, inner, rgba, rail), where)
 
 
 def scene_from_dict(d) -> SceneSpec:

@@ -159,7 +159,9 @@ class CabinetSpec:
     surround it on every side but the front. frame: widths [m] of the face frame (left = +y
     side, right = -y side, top, bottom) standing just in front of the interior, which narrows
     the opening. shelves: top-surface heights [m] of full-width, full-depth shelf boards.
-    inner: further static boards (partitions, compartment walls) as primitives.
+    inner: further static boards (partitions, compartment walls) as primitives. rail [m]: the
+    face frame's rail in front of each shelf reaches this far below the shelf (and half as
+    far above it).
     """
 
     interior_min: tuple[float, float, float]
@@ -168,13 +170,16 @@ class CabinetSpec:
     shelves: tuple[float, ...] = ()
     inner: tuple[Primitive, ...] = ()
     rgba: tuple[float, float, float, float] = BOARD_RGBA
+    rail: float = 0.0
 
     def __post_init__(self) -> None:
         _finite(tuple(self.interior_min) + tuple(self.interior_max), "cabinet interior_min/max")
-        _finite(tuple(self.frame) + tuple(self.shelves), "cabinet frame and shelves")
+        _finite(tuple(self.frame) + tuple(self.shelves) + (self.rail,), "cabinet frame, shelves and rail")
         lo, hi = np.array(self.interior_min), np.array(self.interior_max)
         if lo.shape != (3,) or hi.shape != (3,) or np.any(hi - lo < 0.05):
             raise CompassInputError(f"cabinet interior {self.interior_min}..{self.interior_max} is not a box")
+        if not 0.0 <= self.rail <= 0.1:
+            raise CompassInputError(f"cabinet rail {self.rail} m must be in 0..0.1 m")
         if len(self.frame) != 4 or min(self.frame) < 0:
             raise CompassInputError(f"cabinet frame {self.frame} needs 4 widths >= 0 [m]")
         for z in self.shelves:
@@ -223,6 +228,10 @@ class CabinetSpec:
             out.append(Primitive("frame_bottom", "box", (t / 2, half[1], bottom / 2), (xf, c[1], lo[2] + bottom / 2)))
         for i, z in enumerate(self.shelves):
             out.append(Primitive(f"cab_shelf{i}", "box", (half[0], half[1], t / 2), (c[0], c[1], z - t / 2)))
+            if self.rail > 0:  # a face-frame rail across the front of the shelf
+                lo_r, hi_r = z - t - self.rail, z + 0.5 * self.rail
+                out.append(Primitive(f"frame_rail{i}", "box", (t / 2, half[1], (hi_r - lo_r) / 2),
+                                     (xf, c[1], (lo_r + hi_r) / 2)))
         out.extend(self.inner)
         return [Primitive(p.name, p.shape, p.size, p.pos, p.yaw, self.rgba) for p in out]
 
