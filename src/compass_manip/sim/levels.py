@@ -43,7 +43,7 @@ OBSTACLE_RGBA = (0.4, 0.4, 0.45, 1.0)
 CLUTTER_CATEGORIES = ("cereal_box", "book", "box", "can", "bottle", "mug", "bowl", "sphere")
 N_OBJECTS = (8, 15)
 #: Categories of colour distractors: clearly another shape and size than any target.
-COLOUR_DISTRACTOR_CATEGORIES = ("cereal_box", "book", "bowl", "sphere")
+COLOUR_DISTRACTOR_CATEGORIES = ("cereal_box", "book", "bowl")
 #: Base-obstacle variants, chosen by scene index (stratified).
 OBSTACLE_VARIANTS = ("overhead_plate", "lateral_walls", "bar_wall_post")
 
