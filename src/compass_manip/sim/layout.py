@@ -45,7 +45,7 @@ def draw_cabinet(rng: np.random.Generator) -> tuple[CabinetSpec, list[Compartmen
     n_shelves = int(rng.integers(1, 4))
     clear = [_u(rng, 0.20, 0.35) for _ in range(n_shelves + 1)]
     total = sum(clear) + n_shelves * T
-    z_bottom = _u(rng, 0.18, float(np.clip(1.25 - total, 0.19, 0.40)))
+    z_bottom = _u(rng, 0.26, float(np.clip(1.30 - total, 0.27, 0.40)))
     x_front, depth = _u(rng, 0.40, 0.47), _u(rng, 0.30, 0.38)
     width, yc = _u(rng, 0.56, 0.80), _u(rng, -0.05, 0.05)
     lo = (x_front, yc - width / 2, z_bottom)

@@ -59,7 +59,7 @@ def _u(rng, lo, hi) -> float:
 
 
 def _reachable(c: Compartment) -> bool:
-    return 0.20 <= c.z_floor <= 0.85 and c.clearance >= 0.19
+    return 0.26 <= c.z_floor <= 0.85 and c.clearance >= 0.19
 
 
 class _Builder:
@@ -96,6 +96,8 @@ class _Builder:
 FV_LEVEL_MARGIN = 0.0
 #: Yaw [rad] of the approach corridor of severe targets.
 SEVERE_YAW = 0.6
+#: Farthest target centre [m] from the base along x: deeper, the low storeys are out of reach.
+MAX_TARGET_X = 0.72
 #: Room the hand needs beside a target [m]: the Panda hand is ~0.2 m wide along its closing axis.
 HAND_HALF_WIDTH = 0.115
 
@@ -114,19 +116,19 @@ def _target(b: _Builder, severe: bool) -> tuple[SceneObject, Compartment]:
     category = TARGET_CATEGORIES[int(rng.integers(len(TARGET_CATEGORIES)))]
     colour = OBJECT_COLOURS[int(rng.integers(len(OBJECT_COLOURS)))]
     for _ in range(60):
-        dims = draw_dims(category, rng)
+        dims = _target_dims(category, rng)
         r, h = footprint_radius(category, dims), height_of(category, dims)
         use_corner = severe and corners and (not normal or rng.random() < 0.4)
         c = (corners if use_corner else normal)[int(rng.integers(len(corners if use_corner else normal)))]
         if use_corner and h > c.lip_z - c.z_floor - 0.005:
             continue
-        if c.clearance < h + 0.08:
+        if c.clearance < h + 0.10:
             continue
         if _in_start_view(c, 0.5 * (c.x_lo + c.x_hi)):
             continue
         y = _u(rng, c.y_lo + HAND_HALF_WIDTH, c.y_hi - HAND_HALF_WIDTH)
         if severe:  # at the back, near the robot's centre line: the corridor leaves it sideways
-            x = c.x_hi - max(r, 0.085) - _u(rng, 0.005, 0.04)
+            x = min(c.x_hi - max(r, 0.085) - _u(rng, 0.005, 0.04), MAX_TARGET_X)
             side = 1.0 if rng.random() < 0.5 else -1.0  # the corridor's mouth leaves towards this side
             edge = c.y_hi if side > 0 else c.y_lo
             mouth = edge - side * _u(rng, HAND_HALF_WIDTH + 0.01, HAND_HALF_WIDTH + 0.06)
@@ -134,7 +136,7 @@ def _target(b: _Builder, severe: bool) -> tuple[SceneObject, Compartment]:
             if not c.y_lo + HAND_HALF_WIDTH <= y <= c.y_hi - HAND_HALF_WIDTH:
                 continue
         else:
-            x = _u(rng, c.x_lo + 0.45 * (c.x_hi - c.x_lo), c.x_hi - r - 0.005)
+            x = min(_u(rng, c.x_lo + 0.45 * (c.x_hi - c.x_lo), c.x_hi - r - 0.005), MAX_TARGET_X)
         if not b.placer.fits(c, x, y, r, h + 0.06):  # room above for the fingers
             continue
         yaw = _u(rng, -0.5, 0.5) if category == "box" else 0.0
@@ -157,6 +159,17 @@ def _in_start_view(c: Compartment, x: float) -> bool:
     cam = START_CAMERA_POS
     elev = math.atan2(0.5 * (c.z_floor + c.z_ceiling) - cam[2], x - cam[0])
     return abs(elev) < START_HALF_FOV + math.radians(4.0)
+
+
+def _target_dims(category: str, rng: np.random.Generator) -> tuple[float, ...]:
+    """Dimensions of a target: tall enough that the hand, grasping 2.5 cm below the top,
+    keeps its lower edge and the forearm clear of the shelf (tall cans, upright boxes)."""
+    dims = list(draw_dims(category, rng))
+    if category == "can":
+        dims[1] = _u(rng, 0.115, 0.15)
+    elif category == "box":
+        dims[2] = _u(rng, 0.10, 0.15)
+    return tuple(dims)
 
 
 def _keep_hand_room(b: _Builder, t: SceneObject, c: Compartment, psi: float) -> None:
@@ -312,9 +325,6 @@ def _base_obstacles(rng: np.random.Generator, variant: str, z_cabinet: float) ->
         ph = _u(rng, 0.8, 1.1)
         out.append(Primitive("base_post", "cylinder", (_u(rng, 0.025, 0.04), ph / 2),
                              (_u(rng, 0.30, 0.38), s * _u(rng, 0.22, 0.30), ph / 2), 0.0, OBSTACLE_RGBA))
-    # a low block between the robot and the cabinet, under the arm's path
-    h = min(_u(rng, 0.15, 0.3), z_cabinet - 0.06)
-    out.append(box("base_block", (_u(rng, 0.06, 0.1), _u(rng, 0.1, 0.2), h / 2), (_u(rng, 0.28, 0.36), _u(rng, -0.12, 0.12), h / 2)))
     return out
 
 
