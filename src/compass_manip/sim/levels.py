@@ -309,18 +309,18 @@ def _base_obstacles(rng: np.random.Generator, variant: str, z_cabinet: float) ->
 
     out = []
     if variant == "overhead_plate":
-        z = _u(rng, 0.80, 0.88)
-        x0, x1 = _u(rng, -0.40, -0.25), _u(rng, 0.26, 0.34)
+        z = _u(rng, 0.98, 1.06)
+        x0, x1 = _u(rng, -0.40, -0.25), _u(rng, 0.15, 0.25)
         out.append(box("base_plate", ((x1 - x0) / 2, _u(rng, 0.3, 0.45), 0.015), ((x0 + x1) / 2, _u(rng, -0.05, 0.05), z)))
     if variant in ("lateral_walls", "bar_wall_post"):
         sides = (1.0, -1.0) if variant == "lateral_walls" else ((1.0,) if rng.random() < 0.5 else (-1.0,))
         for k, s in enumerate(sides):
-            y = s * _u(rng, 0.24, 0.30)
+            y = s * _u(rng, 0.27, 0.33)
             x0, x1 = _u(rng, -0.35, -0.2), _u(rng, 0.30, 0.42)
-            h = _u(rng, 0.7, 1.1)
+            h = _u(rng, 0.7, 1.1) if variant == "bar_wall_post" else _u(rng, 0.45, 0.65)
             out.append(box(f"base_wall{k}", ((x1 - x0) / 2, 0.015, h / 2), ((x0 + x1) / 2, y, h / 2)))
     if variant == "bar_wall_post":
-        out.append(box("base_bar", (_u(rng, 0.02, 0.035), 0.45, 0.02), (_u(rng, 0.0, 0.2), 0.0, _u(rng, 0.82, 0.92))))
+        out.append(box("base_bar", (_u(rng, 0.02, 0.035), 0.45, 0.02), (_u(rng, 0.0, 0.2), 0.0, _u(rng, 0.88, 0.96))))
         s = 1.0 if rng.random() < 0.5 else -1.0
         ph = _u(rng, 0.8, 1.1)
         out.append(Primitive("base_post", "cylinder", (_u(rng, 0.025, 0.04), ph / 2),
