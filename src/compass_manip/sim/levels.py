@@ -2,18 +2,21 @@
 
 Every scene: a cabinet or shelving unit (1-3 shelves, face frame, optional partition and
 back-corner compartment, `layout`), 8-15 household objects (`objects`), a target described by
-a `TargetQuery`, colour distractors (same colour, other shape and size) and shape distractors
-(same shape, other colour), decoys (large objects hiding nothing), sometimes a stack.
+a `TargetQuery`, colour distractors (same colour, clearly another shape and size), shape
+distractors (same shape, another colour), decoys (large objects hiding nothing, away from the
+target), sometimes a stack (a lying book with something on it).
 
-L1 moderate: the target stands in the back part of a compartment with an occluder between it
-   and a viewpoint (the start camera when the target's storey is in its view, otherwise a
-   point at the opening); other views from outside or at the opening see it.
-L2 severe: the target stands in a back corner (against a wall or partition, or inside a
-   back-corner compartment) behind a wide occluder that reaches the wall, sometimes with a
-   side blocker; a storey above limits looking down. Certification rejects candidates a
-   reference fixed view can solve.
-L3 = L1 + obstacles near the base and arm; L4 = L2 + those obstacles. The obstacle variant is
-   stratified by scene index (overhead plate / lateral walls / bar, wall and post), so
+The shelves leave room only for near-horizontal grasps, and the Panda hand is ~0.2 m wide
+along its closing axis: every target keeps an approach corridor to the opening free of
+objects (`_keep_hand_room`); occluders stand beside that corridor, placed by what they hide.
+L1 moderate: the target stands on a storey below the start camera's field of view, in the
+   back part of a compartment, with one large object beside its corridor hiding it from
+   views on that side.
+L2 severe: the target stands at the back of a diagonal corridor (yaw SEVERE_YAW) flanked on
+   both sides by tall objects reaching nearly to the shelf above: only views along the
+   corridor, at the target's storey, see it.
+L3 = L1 + obstacles near the base and arm; L4 = L2 + those obstacles. The obstacle variant
+   (overhead plate / lateral walls / bar, wall and post) is chosen by scene index, so
    rejection never drops a variant.
 
 `generate_scene` draws one candidate; `certify.certified_scene` checks it and moves to the
