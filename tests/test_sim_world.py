@@ -26,7 +26,7 @@ def test_rendered_depth_equals_raycast_depth(world4):
         gl = world4.render_depth()
         rc = world4.raycast_depth()
         hit = np.isfinite(gl) & np.isfinite(rc) & (gl > 0) & (rc > 0)
-        assert hit.mean() > 0.5
+        assert hit.mean() > 0.3
         close = np.abs(gl[hit] - rc[hit]) <= 1e-3
         assert close.mean() >= 0.998  # silhouette pixels of many small parts differ
         assert np.array_equal(np.isfinite(gl), np.isfinite(rc))
