@@ -33,7 +33,6 @@ from ..task import COLOURS
 from .layout import Compartment, Placer, box_discs, draw_cabinet
 from .objects import (LARGE_CATEGORIES, TARGET_CATEGORIES, build_object, draw_dims, draw_mass, footprint_radius,
                       height_of, lying_book)
-from .fixed_views import Z_FRACTIONS as FV_Z_FRACTIONS
 from .scenes import Primitive, SceneObject, SceneSpec
 
 LEVELS = (1, 2, 3, 4)
@@ -95,8 +94,6 @@ class _Builder:
         return None
 
 
-#: A fixed-view eye closer than this [m] to a storey's height band looks into it past the shelf.
-FV_LEVEL_MARGIN = 0.0
 #: Yaw [rad] of the approach corridor of severe targets.
 SEVERE_YAW = 0.6
 #: Farthest target centre [m] from the base along x: deeper, the low storeys are out of reach.
@@ -147,13 +144,6 @@ def _target(b: _Builder, severe: bool) -> tuple[SceneObject, Compartment]:
         b.placer.add(t, r)
         return t, c
     raise _Retry("no room for the target")
-
-
-def _level_with_a_fixed_view(cab, c: Compartment) -> bool:
-    """Whether an eye of the reference fixed-view set is at the height of this storey."""
-    o_lo, o_hi = cab.opening()
-    return any(c.z_floor - FV_LEVEL_MARGIN <= o_lo[2] + f * (o_hi[2] - o_lo[2]) <= c.z_ceiling + FV_LEVEL_MARGIN
-               for f in FV_Z_FRACTIONS)
 
 
 def _in_start_view(c: Compartment, x: float) -> bool:
@@ -246,7 +236,7 @@ def _flank(b: _Builder, t: SceneObject, c: Compartment, side: int, psi: float, k
         dims = list(draw_dims(category, rng))
         a = np.array([math.cos(psi), math.sin(psi)])
         n = np.array([-a[1], a[0]])
-        along = r_front(t) - dims[1] / 2 - (_u(rng, 0.0, 0.05) if k == 0 else _u(rng, 0.17, 0.22))
+        along = _r_front(t) - dims[1] / 2 - (_u(rng, 0.0, 0.05) if k == 0 else _u(rng, 0.17, 0.22))
         p = np.array(t.pos[:2]) + along * a + side * (HAND_HALF_WIDTH - 0.02 + b.placer.gap + dims[0] / 2 + _u(rng, 0.0, 0.03)) * n
         dims[2] = float(max(min(c.clearance - _u(rng, 0.025, 0.04), 0.30), hi[2] - c.z_floor + 0.03))
         obj = build_object(b.name(category), category, _other_colour(rng, t.colour), tuple(dims),
@@ -259,7 +249,8 @@ def _flank(b: _Builder, t: SceneObject, c: Compartment, side: int, psi: float, k
     return None
 
 
-def r_front(t: SceneObject) -> float:
+def _r_front(t: SceneObject) -> float:
+    """Half the target's depth along x [m]."""
     lo, hi = t.aabb()
     return 0.5 * float(hi[0] - lo[0])
 

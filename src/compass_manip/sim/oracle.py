@@ -133,12 +133,6 @@ def grasp_candidates(scene: SceneSpec) -> list[tuple[np.ndarray, float]]:
     return [(T, deg) for _, T, deg in out]
 
 
-def _offset(T: np.ndarray, d: np.ndarray) -> np.ndarray:
-    T2 = T.copy()
-    T2[:3, 3] = T[:3, 3] + d
-    return T2
-
-
 def grasp_solutions(ik: PandaIK, T_world_tcp: np.ndarray, q_ref: np.ndarray, n_q7: int = 12) -> np.ndarray:
     """IK solutions (k,7) [rad] of a grasp pose, nearest to q_ref first."""
     return ik.solve(T_world_tcp, "tcp", q_ref, n_q7, retry=False).solutions
