@@ -58,8 +58,8 @@ class CertifyConfig:
     the sphere checker, plan_time_s [s] per planning query, max_grasp_candidates tried.
     reject_fv_solvable_severe: make step 3 a gate. Off by default: with the approach corridor
     a grasp through the shelves needs, a reference fixed view looks along it in most severe
-    candidates (measured: 74 of 80), so the gate would reject nearly every one; fv_solvable
-    is recorded per scene instead."""
+    candidates (measured: all 27 of 30 level-2 candidates that are hidden at start), so the
+    gate would reject nearly every one; fv_solvable is recorded per scene instead."""
 
     n_views: int = 40
     n_view_poses: int = 160
