@@ -47,7 +47,7 @@ N_OBJECTS = (8, 15)
 #: Categories of colour distractors: clearly another shape and size than any target.
 COLOUR_DISTRACTOR_CATEGORIES = ("cereal_box", "book", "bowl")
 #: Base-obstacle variants, chosen by scene index (stratified).
-OBSTACLE_VARIANTS = ("overhead_plate", "lateral_walls", "bar_wall_post")
+OBSTACLE_VARIANTS = ("overhead_plate", "lateral_walls", "bar_wall_post")  # the plate comes with one wall
 
 
 def check_level(level: object) -> int:
@@ -304,14 +304,14 @@ def _base_obstacles(rng: np.random.Generator, variant: str, z_cabinet: float) ->
     out = []
     if variant == "overhead_plate":
         z = _u(rng, 0.98, 1.06)
-        x0, x1 = _u(rng, -0.40, -0.25), _u(rng, 0.15, 0.25)
+        x0, x1 = _u(rng, -0.40, -0.25), _u(rng, 0.0, 0.12)
         out.append(box("base_plate", ((x1 - x0) / 2, _u(rng, 0.3, 0.45), 0.015), ((x0 + x1) / 2, _u(rng, -0.05, 0.05), z)))
-    if variant in ("lateral_walls", "bar_wall_post"):
+    if variant in ("lateral_walls", "bar_wall_post", "overhead_plate"):
         sides = (1.0, -1.0) if variant == "lateral_walls" else ((1.0,) if rng.random() < 0.5 else (-1.0,))
         for k, s in enumerate(sides):
             y = s * _u(rng, 0.27, 0.33)
             x0, x1 = _u(rng, -0.35, -0.2), _u(rng, 0.30, 0.42)
-            h = _u(rng, 0.7, 1.1) if variant == "bar_wall_post" else _u(rng, 0.45, 0.65)
+            h = _u(rng, 0.45, 0.65) if variant == "lateral_walls" else _u(rng, 0.7, 1.1)
             out.append(box(f"base_wall{k}", ((x1 - x0) / 2, 0.015, h / 2), ((x0 + x1) / 2, y, h / 2)))
     if variant == "bar_wall_post":
         out.append(box("base_bar", (_u(rng, 0.02, 0.035), 0.45, 0.02), (_u(rng, 0.0, 0.2), 0.0, _u(rng, 0.88, 0.96))))
