@@ -8,7 +8,9 @@ import pytest
 
 from compass_manip.cli import main
 
-KEYS = {"level", "index", "seed", "certified", "start_visibility", "view_visibility_fraction", "free_config_fraction"}
+KEYS = {"level", "index", "seed", "certified", "start_visibility", "best_fixed_view_visibility", "fv_solvable",
+        "view_visibility_fraction", "free_config_fraction", "views_removed_by_obstacles",
+        "grasps_removed_by_obstacles", "grasp_approach_deg", "n_objects", "n_distractors", "attempts"}
 
 
 def _run(*args):
@@ -18,29 +20,37 @@ def _run(*args):
 
 
 def test_json_output(capsys):
-    assert main(["scenes", "2", "--count", "2", "--seed", "4", "--json"]) == 0
+    assert main(["scenes", "2", "--count", "1", "--seed", "4", "--json"]) == 0
     rows = json.loads(capsys.readouterr().out)
-    assert len(rows) == 2 and KEYS <= set(rows[0])
-    assert [r["index"] for r in rows] == [0, 1] and all(r["certified"] for r in rows)
-    assert all(r["level"] == 2 and r["seed"] == 4 for r in rows)
+    assert len(rows) == 1 and KEYS <= set(rows[0])
+    r = rows[0]
+    assert r["index"] == 0 and r["certified"] and r["level"] == 2 and r["seed"] == 4
+    assert r["n_objects"] >= 8 and r["n_distractors"] >= 2 and 0.0 <= r["grasp_approach_deg"] <= 90.0
+    assert len(r["rejections"]) == r["attempts"] - 1
 
 
-def test_table_and_files(tmp_path, capsys):
-    assert main(["scenes", "3", "--count", "1", "--out", str(tmp_path)]) == 0
+def test_table_files_and_contact_sheet(tmp_path, capsys):
+    assert main(["scenes", "1", "--count", "1", "--seed", "3", "--out", str(tmp_path)]) == 0
     out = capsys.readouterr().out
-    assert "view_vis_frac" in out and "free_cfg_frac" in out
+    for column in ("start", "fv_best", "fv_ok", "view_vis", "free_cfg", "v_rm", "g_rm", "appr°", "obj", "dis"):
+        assert column in out
+    assert "fv_solvable" in out  # the per-level summary
     names = sorted(os.listdir(tmp_path))
-    assert names == ["level3_000.json", "level3_000_overview.png", "level3_000_start_camera.png"]
-    record = json.loads((tmp_path / "level3_000.json").read_text())
-    assert record["scene"]["level"] == 3 and record["certificate"]["certified"] is True
+    assert names == ["level1_000.json", "level1_000_overview.png", "level1_000_start_camera.png",
+                     "level1_contact_sheet.png"]
+    record = json.loads((tmp_path / "level1_000.json").read_text())
+    assert record["scene"]["level"] == 1 and record["certificate"]["certified"] is True
+    assert record["certificate"]["failure"] is None and len(record["certificate"]["path"]) >= 4
     for png in names[1:]:
         assert (tmp_path / png).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
 @pytest.mark.parametrize("args,needle", [
     (["scenes", "7"], "level '7' is not allowed"),
+    (["scenes", "1.5"], "level '1.5' is not allowed"),
     (["scenes", "1", "--count", "0"], "--count 0 is not allowed"),
     (["scenes", "1", "--seed", "-2"], "--seed -2 is not allowed"),
+    (["scenes", "1", "--seed", "x"], "invalid int value"),
     (["scenes", "1", "--count", "many"], "invalid int value"),
 ])
 def test_bad_input_one_line_no_traceback(args, needle):

@@ -3,19 +3,34 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import sys
 import time
+
+import numpy as np
 
 from ..errors import CompassInputError
 
 HELP = "generate and certify the confined scenes of a level; print their difficulty"
+
+#: (key, header, format) of the per-scene table
+COLUMNS = (
+    ("level", "lv", "{:>2}"), ("index", "idx", "{:>3}"), ("sub_seed", "sub-seed", "{:>14}"),
+    ("start_visibility", "start", "{:>5.2f}"), ("best_fixed_view_visibility", "fv_best", "{:>7.2f}"),
+    ("fv_solvable", "fv_ok", "{:>5}"), ("view_visibility_fraction", "view_vis", "{:>8.2f}"),
+    ("free_config_fraction", "free_cfg", "{:>8.2f}"), ("views_removed_by_obstacles", "v_rm", "{:>5.2f}"),
+    ("grasps_removed_by_obstacles", "g_rm", "{:>5.2f}"), ("grasp_approach_deg", "appr°", "{:>5.0f}"),
+    ("n_objects", "obj", "{:>3}"), ("n_distractors", "dis", "{:>3}"), ("attempts", "tries", "{:>5}"),
+    ("time_s", "time_s", "{:>6.2f}"),
+)
 
 
 def add_arguments(p) -> None:
     p.add_argument("level", help="difficulty level 1, 2, 3 or 4, or 'all'")
     p.add_argument("--count", type=int, default=20, help="scenes per level (default 20)")
     p.add_argument("--seed", type=int, default=0, help="base seed of the whole set (default 0)")
-    p.add_argument("--out", default=None, help="write scene JSON, overview and start-camera PNGs here")
+    p.add_argument("--out", default=None,
+                   help="write scene JSON, overview and start-camera PNGs and a contact sheet per level here")
     p.add_argument("--json", action="store_true", help="print one JSON list on stdout")
 
 
@@ -25,6 +40,20 @@ def parse_levels(text: str) -> list[int]:
     if text not in ("1", "2", "3", "4"):
         raise CompassInputError(f"level {text!r} is not allowed; use 1, 2, 3, 4 or all")
     return [int(text)]
+
+
+def certificate_record(cs) -> dict:
+    """The certificate of a certified scene as plain JSON data (failure as its name or None)."""
+    c = cs.certificate
+    out = {}
+    for k, v in c.__dict__.items():
+        if k == "failure":
+            v = v.name if v is not None else None
+        elif isinstance(v, tuple):
+            v = json.loads(json.dumps(v))
+        out[k] = v
+    out["certified"] = c.certified
+    return out
 
 
 def run(args) -> int:
@@ -38,7 +67,7 @@ def run(args) -> int:
 
     from ..sim.certify import certified_scene
 
-    rows = []
+    rows, overviews = [], {lv: [] for lv in levels}
     jobs = [(lv, i) for lv in levels for i in range(args.count)]
     for lv, i in tqdm(jobs, desc="certifying scenes", unit="scene", file=sys.stderr, disable=None):
         t0 = time.perf_counter()
@@ -47,56 +76,91 @@ def run(args) -> int:
         rows.append({
             "level": lv, "index": i, "seed": args.seed, "sub_seed": list(cs.scene.seed),
             "certified": c.certified, "start_visibility": round(c.start_visibility, 4),
+            "best_fixed_view_visibility": round(c.best_fixed_view_visibility, 4), "fv_solvable": c.fv_solvable,
             "view_visibility_fraction": round(c.view_visibility_fraction, 4),
             "free_config_fraction": round(c.free_config_fraction, 4),
-            "n_valid_views": c.n_valid_views, "attempts": cs.attempts,
+            "views_removed_by_obstacles": round(c.views_removed_by_obstacles, 4),
+            "grasps_removed_by_obstacles": round(c.grasps_removed_by_obstacles, 4),
+            "grasp_approach_deg": c.grasp_approach_deg, "lift_height": round(c.lift_height, 4),
+            "n_objects": c.n_objects, "n_distractors": c.n_colour_distractors + c.n_shape_distractors,
+            "n_valid_views": c.n_valid_views, "attempts": cs.attempts, "rejections": list(cs.rejections),
             "time_s": round(time.perf_counter() - t0, 3),
         })
         if args.out:
-            _write(cs, args.out)
+            overviews[lv].append(_write(cs, args.out))
+    if args.out:
+        from ..viz.contact_sheet import save_contact_sheet
+
+        for lv, ims in overviews.items():
+            save_contact_sheet(ims, os.path.join(args.out, f"level{lv}_contact_sheet.png"),
+                               [f"L{lv} #{i}" for i in range(len(ims))], title=f"level {lv}: overviews")
     if args.json:
         print(json.dumps(rows))
     else:
-        _print_table(rows)
+        print_table(rows)
     return 0
 
 
-def _write(cs, out: str) -> None:
+def _write(cs, out: str) -> np.ndarray:
+    """Write one scene's JSON (scene + certificate), overview and start-camera PNGs; return the overview."""
     from ..viz.images import save_frame_png, save_rgb_png
     from ..sim.world import World, render_overview
 
     scene = cs.scene
     stem = os.path.join(out, f"level{scene.level}_{scene.index:03d}")
     os.makedirs(out, exist_ok=True)
-    record = {"scene": scene.to_dict(), "certificate": {
-        k: (v.value if hasattr(v, "value") else v) for k, v in cs.certificate.__dict__.items()}}
+    record = {"scene": scene.to_dict(), "certificate": certificate_record(cs), "attempts": cs.attempts}
     tmp = stem + ".json.tmp"
     with open(tmp, "w") as f:
         json.dump(record, f, indent=1)
     os.replace(tmp, stem + ".json")
     world = World(scene)
     try:
-        save_rgb_png(render_overview(world), stem + "_overview.png")
-        frame = world.render(world.robot.q_home)
+        overview = render_overview(world, 480, 360)
+        save_rgb_png(overview, stem + "_overview.png")
+        frame = world.render(world.robot.q_home, seg=True)
         save_frame_png(frame, stem + "_start_camera.png", world.target_label,
-                       f"level {scene.level} scene {scene.index}: start wrist camera")
+                       f"level {scene.level} scene {scene.index}: start wrist camera ({scene.task().target.text})")
     finally:
         world.close()
+    return overview
 
 
-def _print_table(rows: list[dict]) -> None:
-    head = f"{'level':>5} {'index':>5} {'sub-seed':>16} {'cert':>4} {'start_vis':>9} {'view_vis_frac':>13} {'free_cfg_frac':>13} {'tries':>5} {'time_s':>6}"
+def _width(fmt: str) -> int:
+    return int(re.search(r">(\d+)", fmt).group(1))
+
+
+def _cell(fmt: str, v) -> str:
+    w = _width(fmt)
+    if v is None:
+        return f"{'-':>{w}}"
+    if isinstance(v, bool):
+        return f"{'yes' if v else 'no':>{w}}"
+    if isinstance(v, list):
+        return f"{str(tuple(v)):>{w}}"
+    return fmt.format(v)
+
+
+def print_table(rows: list[dict]) -> None:
+    head = " ".join(f"{h:>{_width(fmt)}}" for _, h, fmt in COLUMNS)
     print(head)
     print("-" * len(head))
     for r in rows:
-        print(f"{r['level']:>5} {r['index']:>5} {str(tuple(r['sub_seed'])):>16} {'yes' if r['certified'] else 'no':>4} "
-              f"{r['start_visibility']:>9.3f} {r['view_visibility_fraction']:>13.3f} {r['free_config_fraction']:>13.3f} "
-              f"{r['attempts']:>5} {r['time_s']:>6.2f}")
-    levels = sorted({r["level"] for r in rows})
+        print(" ".join(_cell(fmt, r[k]) for k, _, fmt in COLUMNS))
     print()
-    print(f"{'level':>5} {'scenes':>6} {'certified':>9} {'mean start_vis':>14} {'mean view_vis_frac':>18} {'mean free_cfg_frac':>18}")
-    for lv in levels:
+    print_summary(rows)
+
+
+def print_summary(rows: list[dict]) -> None:
+    """Per level: scenes, FV-solvable share and means/medians of the difficulty columns."""
+    keys = ("start_visibility", "best_fixed_view_visibility", "view_visibility_fraction", "free_config_fraction",
+            "views_removed_by_obstacles", "grasps_removed_by_obstacles", "n_objects")
+    print(f"{'level':>5} {'scenes':>6} {'fv_solvable':>11} " + " ".join(f"{k[:14]:>14}" for k in keys)
+          + f" {'appr_deg_med':>12} {'time_s_med':>10}")
+    for lv in sorted({r["level"] for r in rows}):
         rs = [r for r in rows if r["level"] == lv]
-        mean = lambda k: sum(r[k] for r in rs) / len(rs)  # noqa: E731
-        print(f"{lv:>5} {len(rs):>6} {sum(r['certified'] for r in rs):>9} {mean('start_visibility'):>14.3f} "
-              f"{mean('view_visibility_fraction'):>18.3f} {mean('free_config_fraction'):>18.3f}")
+        means = [np.mean([r[k] for r in rs]) for k in keys]
+        appr = [r["grasp_approach_deg"] for r in rs if r["grasp_approach_deg"] is not None]
+        print(f"{lv:>5} {len(rs):>6} {sum(r['fv_solvable'] for r in rs) / len(rs):>11.2f} "
+              + " ".join(f"{m:>14.3f}" for m in means)
+              + f" {np.median(appr) if appr else float('nan'):>12.0f} {np.median([r['time_s'] for r in rs]):>10.2f}")

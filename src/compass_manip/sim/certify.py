@@ -1,15 +1,21 @@
 """Ground-truth certification and measured difficulty of generated scenes.
 
-A scene is accepted only when, with the simulator's ground truth:
-(a) the target is hidden from the start camera (visible fraction < `max_start_visibility`);
-(b) at least one collision-free, reachable camera pose sees >= `min_view_visibility` of the
-    target's unoccluded image area;
-(c) at least one collision-free, reachable grasp of the target exists;
-and the home configuration is collision-free. Otherwise the next sub-seed is drawn.
-
-Difficulty figures recorded per scene: the start visibility, the fraction of sampled
-reachable collision-free camera poses aimed near the target that see it, and the fraction
-of random joint configurations near home that are free of contact with the scene.
+A candidate scene is accepted only when, with the simulator's ground truth (`oracle`) and the
+planner's own conservative sphere model on the ground-truth geometry:
+1. home is free of contacts (MuJoCo, self included) and valid for the sphere model;
+2. the start camera sees < `max_start_visibility` of the target;
+3. severe levels (2, 4), if `reject_fv_solvable_severe`: no pose of the reference fixed-view
+   set sees >= `min_view_visibility` (always measured and recorded as `fv_solvable`);
+4. a reachable grasp exists whose pre-grasp, grasp and lift and the straight segments
+   between them are collision-free (checked before the views: it fails more often);
+5. a reachable, collision-free camera pose sees >= `min_view_visibility` of the target;
+   moderate levels (1, 3): one of them is reached on a path along which the camera's
+   distance to the target never grows (monotonic approach, checked with step 7);
+6. levels 3, 4: the base obstacles remove >= `min_obstacle_removal` of the good views and
+   grasps the same scene has without them (counted together);
+7. home -> good view -> pre-grasp plan (`motion.planner.plan`), then pre-grasp -> grasp -> lift;
+8. physics: following pre-grasp -> grasp, closing and lifting holds the target.
+The first failing step is the certificate's `failure`; None means certified.
 """
 from __future__ import annotations
 
@@ -17,235 +23,346 @@ import enum
 import time
 from dataclasses import dataclass, replace
 
-import frankik
 import numpy as np
 
 from ..errors import CompassInputError
-from ..geometry import inv_T, look_at, make_T, rot_z
-from ..robot.model import GRIPPER_MAX_WIDTH, Q_MAX, Q_MIN, T_HAND_TCP, T_world_base, RobotConfig
+from ..geometry import look_at, make_T, rot_z
+from ..motion.planner import PlannerConfig, plan
+from ..robot.model import Q_MAX, Q_MIN
+from ..types import Trajectory
+from . import oracle
 from .levels import check_level, generate_scene
+from .oracle import GroundTruthGrasp, find_grasp  # noqa: F401  (re-exported for older callers)
+from .physics import grasp_and_lift
 from .scenes import SceneSpec
 from .world import World
 
-#: The hand is mounted on the flange (panda_link8) rotated -45 deg about z.
-T_FLANGE_HAND = make_T(rot_z(-np.pi / 4))
-
 
 class CertFailure(enum.Enum):
-    NONE = "none"
     HOME_IN_COLLISION = "home configuration in collision"
     TARGET_VISIBLE_AT_START = "target visible from the start camera"
+    FIXED_VIEW_SEES_TARGET = "a reference fixed view sees the target (severe level)"
     NO_VIEW_SEES_TARGET = "no reachable collision-free view sees the target"
+    NO_MONOTONIC_VIEW = "no good view is reached by a monotonic camera approach (moderate level)"
     NO_GRASP = "no reachable collision-free grasp"
+    OBSTACLES_TOO_WEAK = "base obstacles remove too few good views and grasps"
+    NO_PATH = "home -> view -> pre-grasp does not plan"
+    LIFT_FAILED = "the grasp does not lift the target in physics"
 
 
 @dataclass(frozen=True)
 class CertifyConfig:
-    """Sampling budget and thresholds of the certification."""
+    """Sampling budget and thresholds of the certification. n_views camera poses (the uniform
+    sample of the view statistics) out of n_view_poses (all searched for a good view), n_configs
+    random configurations (uniform +-config_noise [rad] per joint about home), margin [m] of
+    the sphere checker, plan_time_s [s] per planning query, max_grasp_candidates tried.
+    reject_fv_solvable_severe: make step 3 a gate. Off by default: with the approach corridor
+    a grasp through the shelves needs, a reference fixed view looks along it in most severe
+    candidates (measured: all 27 of 30 level-2 candidates that are hidden at start), so the
+    gate would reject nearly every one; fv_solvable is recorded per scene instead."""
 
-    n_views: int = 48
+    n_views: int = 40
+    n_view_poses: int = 160
     n_configs: int = 150
-    config_noise: float = 0.5  # [rad], uniform per joint around home
+    config_noise: float = 0.5
     min_view_visibility: float = 0.3
     max_start_visibility: float = 0.05
-    max_attempts: int = 60
-    q7_samples: int = 9
+    min_obstacle_removal: float = 0.3
+    max_attempts: int = 200
+    n_q7: int = 6
+    n_q7_grasp: int = 12
+    max_grasp_candidates: int = 24
+    margin: float = 0.0
+    plan_time_s: float = 2.0
+    physics: bool = True
+    reject_fv_solvable_severe: bool = False
 
 
 @dataclass(frozen=True)
 class Certificate:
-    """Result of certifying one scene (all fractions in [0, 1])."""
+    """Result of certifying one scene. failure None = certified. Fractions in [0, 1].
 
-    certified: bool
-    failure: CertFailure
-    start_visibility: float
-    view_visibility_fraction: float
-    n_valid_views: int
-    best_view_visibility: float
-    free_config_fraction: float
-    grasp_found: bool
-    time_s: float
+    start_visibility: target fraction seen at home; best_fixed_view_visibility over the
+    reference fixed-view set, fv_solvable when >= min_view_visibility; view_visibility_fraction:
+    share of reachable sampled views that see enough; free_config_fraction: share of random
+    configurations near home free for the sphere model; views/grasps_removed_by_obstacles:
+    share of good views/grasps the base obstacles remove (0 without obstacles);
+    grasp_approach_deg: approach below the horizontal of the certified grasp (None if none);
+    lift_height [m] in physics; path: waypoints (n,7) [rad] home -> view -> pre-grasp -> grasp
+    -> lift with path_marks the indices of view, pre-grasp, grasp, lift; stage_times_s [s].
+    """
+
+    failure: CertFailure | None
+    start_visibility: float = 0.0
+    best_fixed_view_visibility: float = 0.0
+    fv_solvable: bool = False
+    view_visibility_fraction: float = 0.0
+    n_valid_views: int = 0
+    best_view_visibility: float = 0.0
+    free_config_fraction: float = 0.0
+    views_removed_by_obstacles: float = 0.0
+    grasps_removed_by_obstacles: float = 0.0
+    grasp_approach_deg: float | None = None
+    lift_height: float = 0.0
+    n_objects: int = 0
+    n_colour_distractors: int = 0
+    n_shape_distractors: int = 0
+    path: tuple[tuple[float, ...], ...] = ()
+    path_marks: tuple[int, ...] = ()
+    stage_times_s: tuple[tuple[str, float], ...] = ()
+    time_s: float = 0.0
+
+    @property
+    def certified(self) -> bool:
+        return self.failure is None
 
 
 @dataclass(frozen=True)
 class CertifiedScene:
+    """An accepted scene, its certificate, the number of candidates drawn and why the
+    rejected ones failed (failure names in order)."""
+
     scene: SceneSpec
     certificate: Certificate
     attempts: int
-
-
-def ik_world(world: World, T_world_hand: np.ndarray, q_ref: np.ndarray, n_q7: int) -> list[np.ndarray]:
-    """All analytic IK solutions (frankik, q7 sweep) for a hand pose, nearest to q_ref first."""
-    T_base_flange = inv_T(T_world_base(world.robot)) @ T_world_hand @ inv_T(T_FLANGE_HAND)
-    sols = []
-    for q7 in np.linspace(Q_MIN[6] + 0.05, Q_MAX[6] - 0.05, n_q7):
-        cand = np.asarray(frankik.ik_full(T_base_flange, q_ref, float(q7)))
-        for q in cand:
-            if np.all(np.isfinite(q)) and np.all(q >= Q_MIN) and np.all(q <= Q_MAX):
-                sols.append(q)
-    sols.sort(key=lambda q: float(np.sum((q - q_ref) ** 2)))
-    return sols
-
-
-def _free_solution(world: World, T_world_hand, q_ref, n_q7, finger_width=None, check_pos=None):
-    for q in ik_world(world, T_world_hand, q_ref, n_q7):
-        if world.in_collision(q, finger_width, include_self=True):
-            continue
-        if check_pos is not None and np.linalg.norm(check_pos(world) - T_world_hand[:3, 3]) > 0.01:
-            continue  # analytic model and MJCF disagree here
-        return q
-    return None
-
-
-def _sample_views(world: World, cfg: CertifyConfig, rng: np.random.Generator) -> list[float]:
-    """Visible fractions of the target from sampled reachable, collision-free camera poses."""
-    scene = world.scene
-    lo, hi = np.array(scene.cabinet.interior_min), np.array(scene.cabinet.interior_max)
-    target = np.array(scene.target.pos)
-    T_hand_cam = world.camera.T_hand_cam
-    q_home = np.asarray(world.robot.q_home)
-    out = []
-    for _ in range(cfg.n_views):
-        eye = np.array([
-            rng.uniform(lo[0] - 0.25, lo[0] + 0.5 * (hi[0] - lo[0])),
-            rng.uniform(lo[1] + 0.06, hi[1] - 0.06),
-            rng.uniform(lo[2] + 0.06, hi[2] + 0.1),
-        ])
-        if eye[0] > lo[0] - 0.03:
-            eye[2] = min(eye[2], hi[2] - 0.05)
-        aim = target + rng.normal(0.0, 0.02, 3)
-        if np.linalg.norm(aim - eye) < world.camera.depth_min + 0.08:
-            continue
-        T_world_cam = look_at(eye, aim) @ make_T(rot_z(rng.uniform(-np.pi / 2, np.pi / 2)))
-        T_world_hand = T_world_cam @ inv_T(T_hand_cam)
-        q = _free_solution(world, T_world_hand, q_home, cfg.q7_samples)
-        if q is None:
-            continue
-        world.set_q(q)
-        if np.linalg.norm(world.T_world_cam()[:3, 3] - eye) > 0.01:
-            continue
-        out.append(world.target_visibility())
-    return out
+    rejections: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True, eq=False)
-class GroundTruthGrasp:
-    """A grasp found with ground truth: TCP pose, grasp and pre-grasp (8 cm back) configurations."""
-
-    T_world_tcp: np.ndarray
-    q_grasp: np.ndarray
-    q_pregrasp: np.ndarray
+class _Views:
+    vis: np.ndarray  # (n,) visibility of each sampled pose
+    q_full: list  # per pose: valid IK solutions (k,7) with all obstacles
+    n_good_without: int  # good views (reachable + seeing) without the base obstacles
 
 
-def find_grasp(world: World, cfg: CertifyConfig | None = None) -> GroundTruthGrasp | None:
-    """The first collision-free, reachable grasp of the target with the fingers open, or None.
-
-    Candidates: TCP on the target's axis 3 cm below its top; approach from straight above
-    down to 0.6 rad pitch, yaw within +-0.8 rad of +x, eight rolls of the closing axis; the
-    pre-grasp 8 cm back along the approach must be collision-free too.
-    """
-    cfg = cfg or CertifyConfig()
-    tgt = world.scene.target
-    h = tgt.half_extents
-    q_home = np.asarray(world.robot.q_home)
-    R_obj = rot_z(tgt.yaw)
-    top = tgt.pos[2] + h[2]
-    p = np.array([tgt.pos[0], tgt.pos[1], max(tgt.pos[2], top - 0.03)])  # TCP 3 cm below the top
-    for pitch in (np.pi / 2, 1.3, 1.1, 0.9, 0.6):
-        for yaw in ((0.0,) if pitch == np.pi / 2 else (0.0, 0.4, -0.4, 0.8, -0.8)):
-            a = np.array([np.cos(yaw) * np.cos(pitch), np.sin(yaw) * np.cos(pitch), -np.sin(pitch)])
-            y0 = np.cross([1.0, 0.0, 0.0] if pitch == np.pi / 2 else [0.0, 0.0, 1.0], a)
-            y0 /= np.linalg.norm(y0)
-            for roll in np.arange(8) * np.pi / 4:
-                y = np.cos(roll) * y0 + np.sin(roll) * np.cross(a, y0)  # closing axis
-                if tgt.shape == "cylinder":
-                    width = 2 * h[0] / max(np.linalg.norm(y[:2]), 1e-6) if abs(y[2]) > 1e-6 else 2 * h[0]
-                else:
-                    width = 2 * np.sum(np.abs(R_obj.T @ y) * h)
-                if width > GRIPPER_MAX_WIDTH - 0.01:
-                    continue
-                T_world_tcp = make_T(np.column_stack([np.cross(y, a), y, a]), p)
-                T_world_hand = T_world_tcp @ inv_T(T_HAND_TCP)
-                q = _free_solution(world, T_world_hand, q_home, cfg.q7_samples, GRIPPER_MAX_WIDTH)
-                if q is None:
-                    continue
-                T_pre = make_T(T_world_hand[:3, :3], T_world_hand[:3, 3] - 0.08 * a)
-                q_pre = _free_solution(world, T_pre, q, cfg.q7_samples, GRIPPER_MAX_WIDTH)
-                if q_pre is not None:
-                    return GroundTruthGrasp(T_world_tcp, q, q_pre)
-    return None
+def _row_of(scene: SceneSpec) -> tuple[float, float]:
+    z = scene.target.aabb()[0][2]
+    for zf, zc in scene.cabinet.rows():
+        if zf - 1e-6 <= z <= zc:
+            return zf, zc
+    lo, hi = scene.cabinet.interior_min, scene.cabinet.interior_max
+    return lo[2], hi[2]
 
 
-def _free_config_fraction(world: World, cfg: CertifyConfig, rng: np.random.Generator) -> float:
-    q_home = np.asarray(world.robot.q_home)
-    free = 0
-    for _ in range(cfg.n_configs):
-        q = np.clip(q_home + rng.uniform(-cfg.config_noise, cfg.config_noise, 7), Q_MIN, Q_MAX)
-        free += not world.contacts(q, include_self=False)
-    return free / cfg.n_configs
+def sample_view_poses(scene: SceneSpec, n: int, rng: np.random.Generator) -> list[np.ndarray]:
+    """Camera poses T_world_cam around the target's storey, in front of and inside the
+    opening, aimed near the target (ground truth: for certification only)."""
+    o_lo, o_hi = scene.cabinet.opening()
+    zf, zc = _row_of(scene)
+    t = scene.target.pos
+    x_front = o_lo[0]
+    out = []
+    while len(out) < n:
+        x = rng.uniform(x_front - 0.3, max(x_front - 0.25, t[0] - 0.12))
+        y = rng.uniform(o_lo[1] + 0.03, o_hi[1] - 0.03)
+        inside = x > x_front - 0.03
+        z = rng.uniform(zf + 0.03, zc - 0.03) if inside else rng.uniform(zf - 0.05, zc + 0.25)
+        eye = np.array([x, y, z])
+        aim = t + rng.normal(0.0, 0.015, 3)
+        if np.linalg.norm(aim - eye) < 0.16:
+            continue
+        out.append(look_at(eye, aim) @ make_T(rot_z(rng.uniform(-np.pi / 2, np.pi / 2))))
+    return out
 
 
-def certify(scene: SceneSpec, cfg: CertifyConfig | None = None, world: World | None = None) -> Certificate:
+def _views(world: World, config: CertifyConfig, rng, ik, full, without) -> _Views:
+    """Visibility of n_view_poses sampled poses (cheap, by ray casting); IK and collision checks
+    for the first n_views (the uniform sample behind the statistics) and for every further
+    pose that sees enough (the search for a good view)."""
+    home = np.asarray(world.robot.q_home)
+    poses = sample_view_poses(world.scene, config.n_view_poses, rng)
+    vis = np.array([world.visibility_from(T, with_robot=False) for T in poses])
+    q_full, n_without = [], 0
+    for i, T in enumerate(poses):
+        if i >= config.n_views and vis[i] < config.min_view_visibility:
+            q_full.append(np.zeros((0, 7)))
+            continue
+        S = ik.solve(T, "cam", home, config.n_q7, retry=False).solutions
+        ok = full.are_valid(S) if len(S) else np.zeros(0, bool)
+        q_full.append(S[ok])
+        if without is not None and len(S) and vis[i] >= config.min_view_visibility and without.are_valid(S).any():
+            n_without += 1
+    return _Views(vis, q_full, n_without)
+
+
+def _monotonic(kin, path: np.ndarray, target: np.ndarray, step: float = 0.02) -> bool:
+    """True if the camera's distance to `target` never grows (by > 5 mm) along the path."""
+    qs = [path[0]]
+    for a, b in zip(path[:-1], path[1:]):
+        k = max(1, int(np.ceil(np.max(np.abs(b - a)) / step)))
+        qs.extend(a + (b - a) * (i / k) for i in range(1, k + 1))
+    cams = kin.T_world_cam_batch(np.array(qs))[:, :3, 3]
+    d = np.linalg.norm(cams - target, axis=1)
+    return bool(np.all(np.diff(d) <= 0.005))
+
+
+def certify(scene: SceneSpec, config: CertifyConfig | None = None, world: World | None = None) -> Certificate:
     """Check one scene with ground truth and measure its difficulty (deterministic per scene)."""
-    cfg = cfg or CertifyConfig()
+    config = config or CertifyConfig()
     t0 = time.perf_counter()
+    own_world = world is None
     world = world or World(scene)
+    try:
+        return _certify(scene, config, world, t0)
+    finally:
+        if own_world:
+            world.close()
+
+
+def _certify(scene: SceneSpec, config: CertifyConfig, world: World, t0: float) -> Certificate:
     rng = np.random.default_rng(list(scene.seed) + [scene.level, scene.index, 7919])
-    q_home = np.asarray(world.robot.q_home)
+    home = np.asarray(world.robot.q_home)
+    severe, obstacles = scene.level in (2, 4), bool(scene.base_obstacles)
+    stages: list[tuple[str, float]] = []
+    clock = [time.perf_counter()]
 
-    def done(failure, start=0.0, views=(), free=0.0, grasp=False):
-        views = list(views)
-        seeing = sum(v >= cfg.min_view_visibility for v in views)
-        return Certificate(
-            certified=failure is CertFailure.NONE,
-            failure=failure,
-            start_visibility=float(start),
-            view_visibility_fraction=seeing / len(views) if views else 0.0,
-            n_valid_views=len(views),
-            best_view_visibility=float(max(views, default=0.0)),
-            free_config_fraction=float(free),
-            grasp_found=grasp,
-            time_s=time.perf_counter() - t0,
-        )
+    def lap(name: str) -> None:
+        now = time.perf_counter()
+        stages.append((name, round(now - clock[0], 4)))
+        clock[0] = now
 
-    if world.in_collision(q_home, include_self=True):
+    rec = dict(n_objects=len(scene.objects),
+               n_colour_distractors=sum(o.role == "colour_distractor" for o in scene.clutter),
+               n_shape_distractors=sum(o.role == "shape_distractor" for o in scene.clutter))
+
+    def done(failure, **kw):
+        lap("rest")
+        return Certificate(failure, **rec, **kw, stage_times_s=tuple(stages), time_s=time.perf_counter() - t0)
+
+    full = oracle.ground_truth_checker(scene, margin=config.margin)
+    no_target = oracle.ground_truth_checker(scene, exclude_target=True, margin=config.margin)
+    if world.in_collision(home, include_self=True) or not full.is_valid(home):
         return done(CertFailure.HOME_IN_COLLISION)
-    start = world.target_visibility(q_home)
-    if start >= cfg.max_start_visibility:
-        return done(CertFailure.TARGET_VISIBLE_AT_START, start)
-    views = _sample_views(world, cfg, rng)
-    if not any(v >= cfg.min_view_visibility for v in views):
-        return done(CertFailure.NO_VIEW_SEES_TARGET, start, views)
-    free = _free_config_fraction(world, cfg, rng)
-    if find_grasp(world, cfg) is None:
-        return done(CertFailure.NO_GRASP, start, views, free)
-    world.set_q(q_home)
-    return done(CertFailure.NONE, start, views, free, True)
+    rec["start_visibility"] = start = oracle.start_visibility(world)
+    if start >= config.max_start_visibility:
+        return done(CertFailure.TARGET_VISIBLE_AT_START)
+    fv = max(oracle.fixed_view_visibilities(world))
+    rec.update(best_fixed_view_visibility=fv, fv_solvable=bool(fv >= config.min_view_visibility))
+    if severe and config.reject_fv_solvable_severe and rec["fv_solvable"]:
+        return done(CertFailure.FIXED_VIEW_SEES_TARGET)
+    lap("visibility")
+    Q = np.clip(home + rng.uniform(-config.config_noise, config.config_noise, (config.n_configs, 7)), Q_MIN, Q_MAX)
+    rec["free_config_fraction"] = float(np.mean(full.are_valid(Q)))
+    ik = oracle.robot_ik(world.robot)
+    grasps, n_with, n_without = _grasps(world, config, ik, full, no_target, obstacles)
+    if obstacles:
+        rec["grasps_removed_by_obstacles"] = 1.0 - n_with / n_without if n_without else 0.0
+    lap("grasps")
+    if not grasps:
+        return done(CertFailure.NO_GRASP)
+    without = oracle.ground_truth_checker(scene, base_obstacles=False, margin=config.margin) if obstacles else None
+    views = _views(world, config, rng, ik, full, without)
+    reach = np.array([len(q) > 0 for q in views.q_full])
+    good = reach & (views.vis >= config.min_view_visibility)
+    r40, g40 = reach[:config.n_views], good[:config.n_views]  # the uniform sample
+    rec.update(n_valid_views=int(r40.sum()),
+               view_visibility_fraction=float(g40.sum() / r40.sum()) if r40.any() else 0.0,
+               best_view_visibility=float(views.vis[reach].max()) if reach.any() else 0.0)
+    if obstacles:
+        rec["views_removed_by_obstacles"] = 1.0 - good.sum() / views.n_good_without if views.n_good_without else 0.0
+    lap("views")
+    if not good.any():
+        return done(CertFailure.NO_VIEW_SEES_TARGET)
+    goals = np.vstack([views.q_full[i] for i in np.nonzero(good)[0]])
+    goals = goals[np.argsort(np.linalg.norm(goals - home, axis=1), kind="stable")][:24]
+    if obstacles:
+        n_all = int(good.sum()) + n_with
+        n_wo = views.n_good_without + n_without
+        if n_wo == 0 or 1.0 - n_all / n_wo < config.min_obstacle_removal:
+            return done(CertFailure.OBSTACLES_TOO_WEAK)
+    planner = PlannerConfig(time_budget=config.plan_time_s)
+    path1 = None
+    if not severe:  # a monotonic approach: the straight joint segment, else a planned path
+        for q in goals[:6]:
+            if full.edge_valid(home, q) and _monotonic(ik.kin, np.stack([home, q]), scene.target.pos):
+                path1 = np.stack([home, q])
+                break
+        if path1 is None:
+            r = plan(home, goals, full, planner, rng)
+            if r.success and _monotonic(ik.kin, r.path, scene.target.pos):
+                path1 = r.path
+        if path1 is None:
+            lap("plan")
+            return done(CertFailure.NO_MONOTONIC_VIEW)
+    else:
+        r = plan(home, goals, full, planner, rng)
+        path1 = r.path if r.success else None
+    if path1 is None:
+        lap("plan")
+        return done(CertFailure.NO_PATH)
+    r2 = plan(path1[-1], np.stack([g.q_pregrasp for g in grasps]), full, planner, rng)
+    lap("plan")
+    if not r2.success:
+        return done(CertFailure.NO_PATH)
+    order = [r2.goal_index] + [i for i in range(len(grasps)) if i != r2.goal_index][:1]
+    for k, gi in enumerate(order):
+        g = grasps[gi]
+        if k > 0:  # the second choice needs its own path
+            r2 = plan(path1[-1], g.q_pregrasp[None], full, planner, rng)
+            if not r2.success:
+                continue
+        out = grasp_and_lift(world, g.q_pregrasp, _line(g.q_pregrasp, g.q_grasp), _line(g.q_grasp, g.q_lift)) \
+            if config.physics else None
+        if out is None or out.lifted:
+            path = np.vstack([path1, r2.path[1:], g.q_grasp[None], g.q_lift[None]])
+            marks = (len(path1) - 1, len(path1) + len(r2.path) - 2, len(path) - 2, len(path) - 1)
+            lap("physics")
+            world.set_q(home)
+            return done(None, grasp_approach_deg=g.approach_deg, lift_height=out.lift_height if out else 0.0,
+                        path=tuple(tuple(float(v) for v in q) for q in path), path_marks=marks)
+    lap("physics")
+    world.set_q(home)
+    return done(CertFailure.LIFT_FAILED, grasp_approach_deg=grasps[0].approach_deg)
 
 
-def certified_scene(level: int, index: int, seed: int = 0, cfg: CertifyConfig | None = None) -> CertifiedScene:
+def _line(a: np.ndarray, b: np.ndarray, duration: float = 1.2) -> Trajectory:
+    return Trajectory(np.array([0.0, duration]), np.stack([a, b]))
+
+
+def _grasps(world: World, config: CertifyConfig, ik, full, no_target, obstacles: bool):
+    """Valid ground-truth grasps (at most 4 kept unless counting) and, with base obstacles, the
+    number of candidates valid with and without them (all candidates are then evaluated)."""
+    scene = world.scene
+    home = np.asarray(world.robot.q_home)
+    found: list[GroundTruthGrasp] = []
+    n_with = n_without = 0
+    if obstacles:
+        full_wo = oracle.ground_truth_checker(scene, base_obstacles=False, margin=config.margin)
+        nt_wo = oracle.ground_truth_checker(scene, exclude_target=True, base_obstacles=False, margin=config.margin)
+    for T, deg in oracle.grasp_candidates(scene)[:config.max_grasp_candidates]:
+        sols = oracle.grasp_solutions(ik, T, home, config.n_q7_grasp)
+        g = oracle.first_valid_grasp(ik, T, sols, full, no_target, world)
+        if g is not None:
+            found.append(GroundTruthGrasp(T, deg, *g))
+        if obstacles:  # counted with the sphere model alone, with and without the base obstacles
+            n_with += oracle.first_valid_grasp(ik, T, sols, full, no_target) is not None
+            n_without += oracle.first_valid_grasp(ik, T, sols, full_wo, nt_wo) is not None
+        elif len(found) >= 4:
+            break
+    return found, n_with, n_without
+
+
+def certified_scene(level: int, index: int, seed: int = 0, config: CertifyConfig | None = None) -> CertifiedScene:
     """The first candidate of (seed, level, index) that passes certification.
 
     Sub-seed k uses `np.random.default_rng([seed, level, index, k])`; the accepted sub-seed
     is stored in `SceneSpec.seed`, so `regenerate(scene.seed)` gives the same scene.
     """
     level = check_level(level)
-    cfg = cfg or CertifyConfig()
+    config = config or CertifyConfig()
     if isinstance(index, bool) or not isinstance(index, (int, np.integer)) or index < 0:
         raise CompassInputError(f"scene index {index!r} is not allowed; use an integer >= 0")
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise CompassInputError(f"seed {seed!r} is not allowed; use an integer >= 0")
-    for attempt in range(cfg.max_attempts):
+    rejections = []
+    for attempt in range(config.max_attempts):
         scene = regenerate((int(seed), level, int(index), attempt))
-        world = World(scene)
-        try:
-            cert = certify(scene, cfg, world)
-        finally:
-            world.close()
+        cert = certify(scene, config)
         if cert.certified:
-            return CertifiedScene(scene, cert, attempt + 1)
+            return CertifiedScene(scene, cert, attempt + 1, tuple(rejections))
+        rejections.append(cert.failure.name)
     raise RuntimeError(
-        f"no certified scene for level {level}, index {index}, seed {seed} in {cfg.max_attempts} attempts"
+        f"no certified scene for level {level}, index {index}, seed {seed} in {config.max_attempts} attempts"
     )
 
 

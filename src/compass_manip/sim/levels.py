@@ -1,51 +1,53 @@
-"""Procedural confined scenes in four difficulty levels (the COMPASS benchmark).
+"""Procedural confined scenes in four difficulty levels (the COMPASS benchmark), v2.
 
-L1 moderate occlusion, low kinematic constraint: one occluder hides the target from the
-   start camera; moving the camera sideways or up (a monotonic path) reveals it.
-L2 severe occlusion: the target sits in a pocket at the back, behind a wide, tall front
-   occluder with a side wall; the camera has to enter the cabinet, look behind the
-   occluder from the open side and back out.
-L3 = L1 occlusion + obstacles close to the robot's base and arm.
-L4 = L2 occlusion + L3 obstacles.
+Every scene: a cabinet or shelving unit (1-3 shelves, face frame, optional partition and
+back-corner compartment, `layout`), 8-15 household objects (`objects`), a target described by
+a `TargetQuery`, colour distractors (same colour, clearly another shape and size), shape
+distractors (same shape, another colour), decoys (large objects hiding nothing, away from the
+target), sometimes a stack (a lying book with something on it).
 
-`generate_scene` draws one *candidate*; `certify.certified_scene` checks it with ground
-truth and moves to the next sub-seed when it fails.
+The shelves leave room only for near-horizontal grasps, and the Panda hand is ~0.2 m wide
+along its closing axis: every target keeps an approach corridor to the opening free of
+objects (`_keep_hand_room`); occluders stand beside that corridor, placed by what they hide.
+L1 moderate: the target stands on a storey below the start camera's field of view, in the
+   back part of a compartment, with one large object beside its corridor hiding it from
+   views on that side.
+L2 severe: the target stands at the back of a diagonal corridor (yaw SEVERE_YAW) flanked on
+   both sides by tall objects reaching nearly to the shelf above: only views along the
+   corridor, at the target's storey, see it.
+L3 = L1 + obstacles near the base and arm; L4 = L2 + those obstacles. The obstacle variant
+   (overhead plate / lateral walls / bar, wall and post) is chosen by scene index, so
+   rejection never drops a variant.
+
+`generate_scene` draws one candidate; `certify.certified_scene` checks it and moves to the
+next sub-seed when it fails.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+import math
 
 import numpy as np
 
 from ..errors import CompassInputError
-from .scenes import CabinetSpec, Primitive, SceneSpec
+from ..task import COLOURS
+from .layout import Compartment, Placer, box_discs, draw_cabinet
+from .objects import (LARGE_CATEGORIES, TARGET_CATEGORIES, build_object, draw_dims, draw_mass, footprint_radius,
+                      height_of, lying_book)
+from .scenes import Primitive, SceneObject, SceneSpec
 
 LEVELS = (1, 2, 3, 4)
-TARGET_RGBA = (0.9, 0.05, 0.05, 1.0)
-#: Clutter colours: no saturated red, so the target's appearance stays distinctive.
-CLUTTER_PALETTE = (
-    (0.2, 0.45, 0.8, 1.0), (0.25, 0.65, 0.3, 1.0), (0.85, 0.75, 0.2, 1.0), (0.55, 0.35, 0.7, 1.0),
-    (0.3, 0.7, 0.7, 1.0), (0.6, 0.6, 0.6, 1.0), (0.9, 0.9, 0.85, 1.0), (0.35, 0.3, 0.25, 1.0),
-)
-OBSTACLE_RGBA = (0.4, 0.4, 0.45, 1.0)
-#: The start camera (robot.model.Q_HOME) sits near here [m]; occluders are placed on the
-#: line from it to the target.
+#: The start camera (robot.model.Q_HOME) sits here [m], looking along +x.
 START_CAMERA_POS = np.array([0.291, 0.0, 0.696])
-
-
-@dataclass(frozen=True)
-class LevelParams:
-    severe_occlusion: bool
-    base_obstacles: bool
-    n_clutter: tuple[int, int]
-
-
-LEVEL_PARAMS = {
-    1: LevelParams(severe_occlusion=False, base_obstacles=False, n_clutter=(2, 4)),
-    2: LevelParams(severe_occlusion=True, base_obstacles=False, n_clutter=(3, 5)),
-    3: LevelParams(severe_occlusion=False, base_obstacles=True, n_clutter=(2, 4)),
-    4: LevelParams(severe_occlusion=True, base_obstacles=True, n_clutter=(3, 5)),
-}
+START_HALF_FOV = math.radians(29.0)
+#: Colours objects may have (the boards are brown).
+OBJECT_COLOURS = tuple(c for c in COLOURS if c != "brown")
+OBSTACLE_RGBA = (0.4, 0.4, 0.45, 1.0)
+CLUTTER_CATEGORIES = ("cereal_box", "book", "box", "can", "bottle", "mug", "bowl", "sphere")
+N_OBJECTS = (8, 15)
+#: Categories of colour distractors: clearly another shape and size than any target.
+COLOUR_DISTRACTOR_CATEGORIES = ("cereal_box", "book", "bowl")
+#: Base-obstacle variants, chosen by scene index (stratified).
+OBSTACLE_VARIANTS = ("overhead_plate", "lateral_walls", "bar_wall_post")  # the plate comes with one wall
 
 
 def check_level(level: object) -> int:
@@ -54,184 +56,269 @@ def check_level(level: object) -> int:
     return int(level)
 
 
-def _u(rng: np.random.Generator, lo: float, hi: float) -> float:
+def _u(rng, lo, hi) -> float:
     return float(rng.uniform(lo, hi))
 
 
-def _box(name: str, half, pos, yaw=0.0, rgba=OBSTACLE_RGBA, movable=False, mass=0.2) -> Primitive:
-    return Primitive(name, "box", tuple(float(h) for h in half), tuple(float(p) for p in pos), float(yaw),
-                     tuple(rgba), movable, mass)
+def _reachable(c: Compartment) -> bool:
+    return 0.26 <= c.z_floor <= 0.85 and c.clearance >= 0.19
 
 
-def _overlaps(a: Primitive, others: list[Primitive], gap: float) -> bool:
-    lo, hi = a.aabb()
-    for o in others:
-        olo, ohi = o.aabb()
-        if np.all(lo[:2] < ohi[:2] + gap) and np.all(olo[:2] < hi[:2] + gap):
-            return True
-    return False
+class _Builder:
+    def __init__(self, rng: np.random.Generator, cabinet, comps: list[Compartment]):
+        self.rng, self.cabinet, self.comps = rng, cabinet, comps
+        self.placer = Placer()
+        self.objects: list[SceneObject] = []
+        self.n = 0
+
+    def name(self, category: str) -> str:
+        self.n += 1
+        return f"{category}{self.n}"
+
+    def place(self, category: str, colour: str, role: str, comps=None, x_range=None, dims=None,
+              tries: int = 40) -> SceneObject | None:
+        rng = self.rng
+        dims = dims or draw_dims(category, rng)
+        r, h = footprint_radius(category, dims), height_of(category, dims)
+        for _ in range(tries):
+            pool = comps or self.comps
+            c = pool[int(rng.integers(len(pool)))]
+            xa, xb = x_range(c) if x_range else (c.x_lo, c.x_hi)
+            x, y = _u(rng, xa, xb), _u(rng, c.y_lo, c.y_hi)
+            if self.placer.fits(c, x, y, r, h):
+                obj = build_object(self.name(category), category, colour, dims, draw_mass(category, rng), x, y,
+                                   c.z_floor, _u(rng, -math.pi, math.pi), role)
+                self.placer.add(obj, r)
+                self.objects.append(obj)
+                return obj
+        return None
 
 
-def _fit_inside(p: Primitive, cab: CabinetSpec, margin: float = 0.003) -> Primitive:
-    """Shift p horizontally so its bounding box lies inside the cabinet's interior."""
-    lo, hi = p.aabb()
-    ilo = np.array(cab.interior_min[:2]) + margin
-    ihi = np.array(cab.interior_max[:2]) - margin
-    shift = np.maximum(ilo - lo[:2], 0.0) - np.maximum(hi[:2] - ihi, 0.0)
-    if not np.any(shift):
-        return p
-    pos = (float(p.pos[0] + shift[0]), float(p.pos[1] + shift[1]), p.pos[2])
-    return Primitive(p.name, p.shape, p.size, pos, p.yaw, p.rgba, p.movable, p.mass)
+#: Yaw [rad] of the approach corridor of severe targets.
+SEVERE_YAW = 0.6
+#: Farthest target centre [m] from the base along x: deeper, the low storeys are out of reach.
+MAX_TARGET_X = 0.72
+#: Room the hand needs beside a target [m]: the Panda hand is ~0.2 m wide along its closing axis.
+HAND_HALF_WIDTH = 0.115
 
 
-def _cabinet(rng: np.random.Generator) -> CabinetSpec:
-    x_front = _u(rng, 0.46, 0.52)
-    depth = _u(rng, 0.30, 0.36)
-    width = _u(rng, 0.56, 0.70)
-    height = _u(rng, 0.55, 0.62)
-    z_bottom = _u(rng, 0.42, 0.48)
-    yc = _u(rng, -0.04, 0.04)
-    return CabinetSpec(
-        interior_min=(x_front, yc - width / 2, z_bottom),
-        interior_max=(x_front + depth, yc + width / 2, z_bottom + height),
-    )
-
-
-def _target(rng: np.random.Generator, cab: CabinetSpec, x: float, y: float) -> Primitive:
-    height = _u(rng, 0.10, 0.15)
-    z = cab.interior_min[2] + height / 2
-    if rng.random() < 0.5:
-        r = _u(rng, 0.02, 0.027)
-        return Primitive("target", "cylinder", (r, height / 2), (x, y, z), 0.0, TARGET_RGBA, True, 0.08)
-    hx, hy = _u(rng, 0.018, 0.026), _u(rng, 0.018, 0.026)
-    return Primitive("target", "box", (hx, hy, height / 2), (x, y, z), _u(rng, -0.4, 0.4), TARGET_RGBA, True, 0.08)
-
-
-def _colour(rng: np.random.Generator) -> tuple[float, ...]:
-    return CLUTTER_PALETTE[int(rng.integers(len(CLUTTER_PALETTE)))]
-
-
-def _occluder_height(cab: CabinetSpec, target: Primitive, x_occ_front: float, margin: float) -> float:
-    """Height [m] an occluder at x_occ_front needs to hide the target top from the start camera."""
-    top = cab.interior_min[2] + 2 * target.half_extents[2]
-    x_back = target.pos[0] + target.half_extents[0]
-    cx, cz = START_CAMERA_POS[0], START_CAMERA_POS[2]
-    z_line = cz + (top - cz) * (x_occ_front - cx) / (x_back - cx)
-    return z_line - cab.interior_min[2] + margin
-
-
-def _line_of_sight(tx: float, ty: float) -> tuple[np.ndarray, float]:
-    """Unit (x, y) direction from the start camera to (tx, ty) and its length [m]."""
-    los = np.array([tx - START_CAMERA_POS[0], ty - START_CAMERA_POS[1]])
-    n = float(np.linalg.norm(los))
-    return los / n, n
-
-
-def _board(name, rng, cab, target, d_occ: float, extra_half_w: float, h: float) -> Primitive:
-    """A board across the line of sight, d_occ [m] in front of the target's axis."""
-    los, dist_t = _line_of_sight(target.pos[0], target.pos[1])
-    r = float(max(target.half_extents[:2])) * np.sqrt(2.0)
-    oc = np.array(target.pos[:2]) - d_occ * los
-    half_w = (r + 0.015) * (dist_t - d_occ) / dist_t + extra_half_w
-    half_t = _u(rng, 0.01, 0.02)
-    lo = cab.interior_min
-    board = _box(name, (half_t, half_w, h / 2), (oc[0], oc[1], lo[2] + h / 2), float(np.arctan2(los[1], los[0])),
-                 _colour(rng), True, 0.3)
-    return _fit_inside(board, cab)
-
-
-def _place_target(rng, cab: CabinetSpec) -> Primitive:
-    lo, hi = np.array(cab.interior_min), np.array(cab.interior_max)
-    tx = _u(rng, max(lo[0] + 0.1, 0.57), min(hi[0] - 0.06, 0.68))
-    ty = _u(rng, max(lo[1] + 0.1, -0.2), min(hi[1] - 0.1, 0.2))
-    return _target(rng, cab, tx, ty)
-
-
-def _occlusion_l1(rng, cab: CabinetSpec) -> tuple[Primitive, list[Primitive]]:
-    """One board on the line of sight, just tall enough to hide the target from the start."""
-    lo, hi = np.array(cab.interior_min), np.array(cab.interior_max)
-    target = _place_target(rng, cab)
-    d_occ = _u(rng, 0.07, 0.1)
-    los, _ = _line_of_sight(target.pos[0], target.pos[1])
-    x_front = target.pos[0] - (d_occ + 0.02) * los[0]
-    h = _occluder_height(cab, target, x_front, 0.01) + _u(rng, 0.0, 0.02)
-    h = min(h, (hi[2] - lo[2]) - 0.1)
-    return target, [_board("occluder0", rng, cab, target, d_occ, _u(rng, 0.01, 0.025), h)]
-
-
-def _occlusion_l2(rng, cab: CabinetSpec) -> tuple[Primitive, list[Primitive]]:
-    """A wide board twice the target's height and a side wall: the camera has to rise above
-    it and look down behind it from inside the cabinet, then back out."""
-    lo, hi = np.array(cab.interior_min), np.array(cab.interior_max)
-    target = _place_target(rng, cab)
-    height_in = hi[2] - lo[2]
-    d_occ = _u(rng, 0.08, 0.11)
-    los, _ = _line_of_sight(target.pos[0], target.pos[1])
-    h = height_in * _u(rng, 0.36, 0.44)
-    board = _board("occluder0", rng, cab, target, d_occ, _u(rng, 0.05, 0.08), h)
-    # a side wall along the line of sight closes one side of the space behind the board
-    normal = np.array([-los[1], los[0]])
-    side = 1.0 if rng.random() < 0.5 else -1.0
-    r = float(max(target.half_extents[:2]))
-    length = d_occ - 0.03
-    centre = np.array(target.pos[:2]) - (0.5 * length + 0.02) * los + side * (r + _u(rng, 0.1, 0.12)) * normal
-    h_side = h * _u(rng, 0.75, 0.9)
-    wall = _box("occluder1", (length / 2, 0.012, h_side / 2), (centre[0], centre[1], lo[2] + h_side / 2),
-                float(np.arctan2(los[1], los[0])), _colour(rng), True, 0.2)
-    wall = _fit_inside(wall, cab)
-    return target, [board, wall]
-
-
-def _clutter(rng, cab: CabinetSpec, n: int, placed: list[Primitive]) -> list[Primitive]:
-    lo, hi = np.array(cab.interior_min), np.array(cab.interior_max)
-    out: list[Primitive] = []
-    for i in range(200):
-        if len(out) == n:
-            break
-        colour = _colour(rng)
-        h = _u(rng, 0.05, 0.16)
-        kind = int(rng.integers(3))
-        x, y = _u(rng, lo[0] + 0.04, hi[0] - 0.04), _u(rng, lo[1] + 0.04, hi[1] - 0.04)
-        name = f"clutter{len(out)}"
-        if kind == 0:
-            p = _box(name, (_u(rng, 0.02, 0.045), _u(rng, 0.02, 0.045), h / 2), (x, y, lo[2] + h / 2),
-                     _u(rng, -np.pi, np.pi), colour, True, 0.15)
-        elif kind == 1:
-            p = Primitive(name, "cylinder", (_u(rng, 0.02, 0.04), h / 2), (x, y, lo[2] + h / 2), 0.0, colour, True, 0.15)
+def _target(b: _Builder, severe: bool) -> tuple[SceneObject, Compartment]:
+    """The target and its compartment. Severe: at the back, in a back-corner compartment
+    (hidden by its lip) or in a storey tall enough to reach over an occluder; always at least
+    HAND_HALF_WIDTH from the side walls so a grasp can exist."""
+    rng = b.rng
+    ok = [c for c in b.comps if _reachable(c) and (c.x_hi - c.x_lo) >= 0.12
+          and (c.y_hi - c.y_lo) >= 2 * HAND_HALF_WIDTH + 0.01]
+    corners = [c for c in ok if c.corner]
+    normal = [c for c in ok if not c.corner]
+    if not normal and not corners:
+        raise _Retry("no compartment for the target")
+    category = TARGET_CATEGORIES[int(rng.integers(len(TARGET_CATEGORIES)))]
+    colour = OBJECT_COLOURS[int(rng.integers(len(OBJECT_COLOURS)))]
+    for _ in range(60):
+        dims = _target_dims(category, rng)
+        r, h = footprint_radius(category, dims), height_of(category, dims)
+        use_corner = severe and corners and (not normal or rng.random() < 0.4)
+        c = (corners if use_corner else normal)[int(rng.integers(len(corners if use_corner else normal)))]
+        if use_corner and h > c.lip_z - c.z_floor - 0.005:
+            continue
+        if c.clearance < h + 0.10:
+            continue
+        if _in_start_view(c, 0.5 * (c.x_lo + c.x_hi)):
+            continue
+        y = _u(rng, c.y_lo + HAND_HALF_WIDTH, c.y_hi - HAND_HALF_WIDTH)
+        if severe:  # at the back, near the robot's centre line: the corridor leaves it sideways
+            x = min(c.x_hi - max(r, 0.085) - _u(rng, 0.005, 0.04), MAX_TARGET_X)
+            side = 1.0 if rng.random() < 0.5 else -1.0  # the corridor's mouth leaves towards this side
+            edge = c.y_hi if side > 0 else c.y_lo
+            mouth = edge - side * _u(rng, HAND_HALF_WIDTH + 0.01, HAND_HALF_WIDTH + 0.06)
+            y = mouth - side * (x - c.x_lo) * math.tan(SEVERE_YAW)
+            if not c.y_lo + HAND_HALF_WIDTH <= y <= c.y_hi - HAND_HALF_WIDTH:
+                continue
         else:
-            rad = _u(rng, 0.025, 0.045)
-            p = Primitive(name, "sphere", (rad,), (x, y, lo[2] + rad), 0.0, colour, True, 0.1)
-        a_lo, a_hi = p.aabb()
-        if np.any(a_lo[:2] < lo[:2] + 0.005) or np.any(a_hi[:2] > hi[:2] - 0.005):
+            x = min(_u(rng, c.x_lo + 0.45 * (c.x_hi - c.x_lo), c.x_hi - r - 0.005), MAX_TARGET_X)
+        if not b.placer.fits(c, x, y, r, h + 0.06):  # room above for the fingers
             continue
-        if not _overlaps(p, placed + out, 0.015):
-            out.append(p)
-    return out
+        yaw = _u(rng, -0.5, 0.5) if category == "box" else 0.0
+        t = build_object("target", category, colour, dims, _u(rng, 0.08, 0.2), x, y, c.z_floor, yaw, "target")
+        b.placer.add(t, r)
+        return t, c
+    raise _Retry("no room for the target")
 
 
-def _base_obstacles(rng) -> list[Primitive]:
-    """Obstacles close to the robot's base and arm (levels 3 and 4)."""
+def _in_start_view(c: Compartment, x: float) -> bool:
+    """Whether a storey's middle lies within the start camera's vertical field of view (the
+    target is placed elsewhere: with the approach corridor open, nothing would hide it)."""
+    cam = START_CAMERA_POS
+    elev = math.atan2(0.5 * (c.z_floor + c.z_ceiling) - cam[2], x - cam[0])
+    return abs(elev) < START_HALF_FOV + math.radians(4.0)
+
+
+def _target_dims(category: str, rng: np.random.Generator) -> tuple[float, ...]:
+    """Dimensions of a target: tall enough that the hand, grasping 2.5 cm below the top,
+    keeps its lower edge and the forearm clear of the shelf (tall cans, upright boxes)."""
+    dims = list(draw_dims(category, rng))
+    if category == "can":
+        dims[1] = _u(rng, 0.115, 0.15)
+    elif category == "box":
+        dims[2] = _u(rng, 0.10, 0.15)
+    return tuple(dims)
+
+
+def _keep_hand_room(b: _Builder, t: SceneObject, c: Compartment, psi: float) -> None:
+    """Keep a corridor from the opening to the target (hand approach yaw psi [rad]) free: the
+    shelves above leave room only for near-horizontal approaches, and the hand (~0.2 m wide
+    along its closing axis) and the forearm below or above it need that corridor."""
+    lo, hi = t.aabb()
+    back = -np.array([math.cos(psi), math.sin(psi)])
+    p = np.array(t.pos[:2], dtype=float)
+    while p[0] > c.x_lo - 0.05:
+        b.placer.keep_out(p[0], p[1], HAND_HALF_WIDTH - 0.02, c.z_floor, c.z_ceiling)
+        p = p + 0.04 * back
+
+
+class _Retry(Exception):
+    pass
+
+
+def _side_occluder(b: _Builder, t: SceneObject, c: Compartment, side: int, angle: tuple[float, float],
+                   extra_h: tuple[float, float], role: str = "occluder") -> SceneObject | None:
+    """A large object in front of the target on one side of its approach corridor (side +1:
+    +y), at `angle` [rad] from the -x direction, facing the target, taller than it by extra_h [m]."""
+    rng = b.rng
+    lo, hi = t.aabb()
+    r_t = 0.5 * float(hi[0] - lo[0])
+    for _ in range(25):
+        category = LARGE_CATEGORIES[int(rng.integers(2))]
+        dims = list(draw_dims(category, rng))
+        phi = _u(rng, *angle)
+        u = np.array([-math.cos(phi), side * math.sin(phi)])
+        p = t.pos[:2] + (r_t + _u(rng, 0.03, 0.07) + dims[0] / 2 + 0.06) * u
+        dims[2] = float(min(hi[2] - c.z_floor + _u(rng, *extra_h), c.clearance - 0.035))
+        yaw = math.atan2(u[1], u[0]) + _u(rng, -0.15, 0.15)
+        obj = build_object(b.name(category), category, _other_colour(rng, t.colour), tuple(dims),
+                           draw_mass(category, rng), p[0], p[1], c.z_floor, yaw, role)
+        if _inside(obj, c) and _free(b, obj):
+            b.placer.add_box(obj)
+            b.objects.append(obj)
+            return obj
+    return None
+
+
+def _occluders(b: _Builder, t: SceneObject, c: Compartment, severe: bool) -> list[SceneObject]:
+    """Moderate: one large object on one side of the approach corridor (it hides the target
+    from views on that side). Severe: one on each side, closer to the corridor and taller, so
+    only views close to the corridor's axis, at the target's storey, see the target."""
+    rng = b.rng
+    side = 1 if rng.random() < 0.5 else -1
+    if not severe:
+        o = _side_occluder(b, t, c, side, (0.7, 1.2), (0.0, 0.04))
+        return [o] if o is not None else []
+    psi = _severe_yaw(t, c)
+    out = [_flank(b, t, c, s, psi, k) for k in (0, 1) for s in (side, -side)]
+    return [o for o in out if o is not None] if all(o is not None for o in out[:2]) else []
+
+
+def _severe_yaw(t: SceneObject, c: Compartment) -> float:
+    """Approach yaw [rad] of a severe target's corridor: diagonal (SEVERE_YAW, in the grasp
+    candidates' set), its mouth near a side of the opening: the corridor's line points past
+    the reference fixed views, and the start camera looks at its flank."""
+    return -SEVERE_YAW if t.pos[1] < 0.5 * (c.y_lo + c.y_hi) else SEVERE_YAW
+
+
+def _flank(b: _Builder, t: SceneObject, c: Compartment, side: int, psi: float, k: int = 0) -> SceneObject | None:
+    """A large object beside the approach corridor, its wide face along x: the target sits at
+    the end of a canyon that only a view along the corridor, at the target's storey, sees into."""
+    rng = b.rng
+    lo, hi = t.aabb()
+    for _ in range(25):
+        category = LARGE_CATEGORIES[int(rng.integers(2))]
+        dims = list(draw_dims(category, rng))
+        a = np.array([math.cos(psi), math.sin(psi)])
+        n = np.array([-a[1], a[0]])
+        along = _r_front(t) - dims[1] / 2 - (_u(rng, 0.0, 0.05) if k == 0 else _u(rng, 0.17, 0.22))
+        p = np.array(t.pos[:2]) + along * a + side * (HAND_HALF_WIDTH - 0.02 + b.placer.gap + dims[0] / 2 + _u(rng, 0.0, 0.03)) * n
+        dims[2] = float(max(min(c.clearance - _u(rng, 0.025, 0.04), 0.30), hi[2] - c.z_floor + 0.03))
+        obj = build_object(b.name(category), category, _other_colour(rng, t.colour), tuple(dims),
+                           draw_mass(category, rng), p[0], p[1], c.z_floor, psi + math.pi / 2 + _u(rng, -0.08, 0.08),
+                           "occluder")
+        if _inside(obj, c) and _free(b, obj):
+            b.placer.add_box(obj)
+            b.objects.append(obj)
+            return obj
+    return None
+
+
+def _r_front(t: SceneObject) -> float:
+    """Half the target's depth along x [m]."""
+    lo, hi = t.aabb()
+    return 0.5 * float(hi[0] - lo[0])
+
+
+def _inside(obj: SceneObject, c: Compartment) -> bool:
+    lo, hi = obj.aabb()
+    return (lo[0] >= c.x_lo + 0.003 and hi[0] <= c.x_hi - 0.003 and lo[1] >= c.y_lo + 0.003
+            and hi[1] <= c.y_hi - 0.003 and hi[2] <= c.z_ceiling - 0.02)
+
+
+def _free(b: _Builder, obj: SceneObject) -> bool:
+    for (x, y, rad, zl, zh) in box_discs(obj):
+        for (ox, oy, orad, ozl, ozh) in b.placer.discs:
+            if zl < ozh and ozl < zh and math.hypot(x - ox, y - oy) < rad + orad + b.placer.gap:
+                return False
+    return True
+
+
+def _other_colour(rng, colour: str) -> str:
+    pool = [c for c in OBJECT_COLOURS if c != colour]
+    return pool[int(rng.integers(len(pool)))]
+
+
+def _stack(b: _Builder, colour_ban: str) -> None:
+    """A book lying flat with a small object on top of it."""
+    rng = b.rng
+    dims = draw_dims("book", rng)
+    for _ in range(20):
+        c = b.comps[int(rng.integers(len(b.comps)))]
+        x, y = _u(rng, c.x_lo, c.x_hi), _u(rng, c.y_lo, c.y_hi)
+        r = 0.5 * math.hypot(dims[1], dims[2])
+        top_cat = ("can", "box", "mug", "bowl")[int(rng.integers(4))]
+        top_dims = draw_dims(top_cat, rng)
+        if not b.placer.fits(c, x, y, r, dims[0] + height_of(top_cat, top_dims)):
+            continue
+        book = lying_book(b.name("book"), _other_colour(rng, colour_ban), dims, draw_mass("book", rng), x, y,
+                          c.z_floor, _u(rng, -0.3, 0.3))
+        top = build_object(b.name(top_cat), top_cat, _other_colour(rng, colour_ban), top_dims, draw_mass(top_cat, rng),
+                           x, y, c.z_floor + dims[0], _u(rng, -math.pi, math.pi))
+        b.placer.add(book, r)
+        b.objects += [book, top]
+        return
+
+
+def _base_obstacles(rng: np.random.Generator, variant: str, z_cabinet: float) -> list[Primitive]:
+    """Obstacles close to the robot's base and arm (levels 3 and 4); always at least one
+    overhead or lateral constraint."""
+    def box(name, half, pos):
+        return Primitive(name, "box", tuple(float(h) for h in half), tuple(float(p) for p in pos), 0.0, OBSTACLE_RGBA)
+
     out = []
-    # side walls left and right of the base that limit joint 1 and the elbow
-    for k, s in enumerate((1.0, -1.0)):
-        if k == 1 and rng.random() < 0.3:
-            continue
-        y = s * _u(rng, 0.27, 0.34)
-        x0, x1 = _u(rng, -0.25, -0.1), _u(rng, 0.35, 0.5)
-        h = _u(rng, 0.55, 0.9)
-        out.append(_box(f"base_wall{k}", ((x1 - x0) / 2, 0.02, h / 2), ((x0 + x1) / 2, y, h / 2)))
-    # a low block between the robot and the cabinet, under the arm's path
-    h = _u(rng, 0.22, 0.32)
-    out.append(_box("base_block", (_u(rng, 0.06, 0.1), _u(rng, 0.1, 0.18), h / 2), (_u(rng, 0.3, 0.42), _u(rng, -0.1, 0.1), h / 2)))
-    # a post next to the cabinet's front edge
-    s = 1.0 if rng.random() < 0.5 else -1.0
-    ph = _u(rng, 0.7, 1.0)
-    out.append(Primitive("base_post", "cylinder", (_u(rng, 0.025, 0.04), ph / 2),
-                         (_u(rng, 0.3, 0.4), s * _u(rng, 0.22, 0.3), ph / 2), 0.0, OBSTACLE_RGBA))
-    # an overhead bar across the workspace, above the home pose
-    if rng.random() < 0.6:
-        z = _u(rng, 0.98, 1.08)
-        out.append(_box("base_bar", (0.025, 0.45, 0.025), (_u(rng, 0.25, 0.4), 0.0, z)))
+    if variant == "overhead_plate":
+        z = _u(rng, 0.98, 1.06)
+        x0, x1 = _u(rng, -0.40, -0.25), _u(rng, 0.0, 0.12)
+        out.append(box("base_plate", ((x1 - x0) / 2, _u(rng, 0.3, 0.45), 0.015), ((x0 + x1) / 2, _u(rng, -0.05, 0.05), z)))
+    if variant in ("lateral_walls", "bar_wall_post", "overhead_plate"):
+        sides = (1.0, -1.0) if variant == "lateral_walls" else ((1.0,) if rng.random() < 0.5 else (-1.0,))
+        for k, s in enumerate(sides):
+            y = s * _u(rng, 0.27, 0.33)
+            x0, x1 = _u(rng, -0.35, -0.2), _u(rng, 0.30, 0.42)
+            h = _u(rng, 0.45, 0.65) if variant == "lateral_walls" else _u(rng, 0.7, 1.1)
+            out.append(box(f"base_wall{k}", ((x1 - x0) / 2, 0.015, h / 2), ((x0 + x1) / 2, y, h / 2)))
+    if variant == "bar_wall_post":
+        out.append(box("base_bar", (_u(rng, 0.02, 0.035), 0.45, 0.02), (_u(rng, 0.0, 0.2), 0.0, _u(rng, 0.88, 0.96))))
+        s = 1.0 if rng.random() < 0.5 else -1.0
+        ph = _u(rng, 0.8, 1.1)
+        out.append(Primitive("base_post", "cylinder", (_u(rng, 0.025, 0.04), ph / 2),
+                             (_u(rng, 0.30, 0.38), s * _u(rng, 0.22, 0.30), ph / 2), 0.0, OBSTACLE_RGBA))
     return out
 
 
@@ -243,18 +330,47 @@ def generate_scene(level: int, index: int, rng: np.random.Generator) -> SceneSpe
     level = check_level(level)
     if not isinstance(rng, np.random.Generator):
         raise CompassInputError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
-    params = LEVEL_PARAMS[level]
-    cab = _cabinet(rng)
-    target, occluders = (_occlusion_l2 if params.severe_occlusion else _occlusion_l1)(rng, cab)
-    n = int(rng.integers(params.n_clutter[0], params.n_clutter[1] + 1))
-    clutter = occluders + _clutter(rng, cab, n, occluders + [target])
-    obstacles = _base_obstacles(rng) if params.base_obstacles else []
-    return SceneSpec(
-        level=level,
-        index=int(index),
-        seed=(),
-        cabinet=cab,
-        target=target,
-        clutter=tuple(clutter),
-        base_obstacles=tuple(obstacles),
-    )
+    severe = level in (2, 4)
+    for _ in range(50):
+        try:
+            return _draw(level, int(index), rng, severe)
+        except _Retry:
+            continue
+    raise RuntimeError(f"could not lay out a level-{level} scene in 50 draws")
+
+
+def _draw(level: int, index: int, rng: np.random.Generator, severe: bool) -> SceneSpec:
+    cab, comps = draw_cabinet(rng)
+    b = _Builder(rng, cab, comps)
+    target, comp = _target(b, severe)
+    _keep_hand_room(b, target, comp, _severe_yaw(target, comp) if severe else 0.0)
+    if not _occluders(b, target, comp, severe) and not comp.corner:
+        raise _Retry("no occluder fits")
+    n_total = int(rng.integers(N_OBJECTS[0], N_OBJECTS[1] + 1))
+    others = [c for c in COLOUR_DISTRACTOR_CATEGORIES if c != target.category]
+    colour_cat = others[int(rng.integers(len(others)))]
+    if b.place(colour_cat, target.colour, "colour_distractor") is None:
+        raise _Retry("no room for the colour distractor")
+    if b.place(target.category, _other_colour(rng, target.colour), "shape_distractor") is None:
+        raise _Retry("no room for the shape distractor")
+    n_decoys = int(rng.integers(1, 3))
+    # decoys: large objects away from the space in front of the target
+    away = [c for c in comps if c is not comp] or comps
+    for _ in range(n_decoys):
+        cat = LARGE_CATEGORIES[int(rng.integers(2))]
+        b.place(cat, _other_colour(rng, target.colour), "decoy", away)
+    if rng.random() < 0.5:
+        _stack(b, target.colour)
+    attempts = 0
+    while len(b.objects) + 1 < n_total and attempts < 60:
+        attempts += 1
+        cat = CLUTTER_CATEGORIES[int(rng.integers(len(CLUTTER_CATEGORIES)))]
+        b.place(cat, _other_colour(rng, target.colour), "clutter", tries=8)
+    if not any(o.role == "decoy" for o in b.objects) or len(b.objects) + 1 < N_OBJECTS[0]:
+        raise _Retry("too few objects")
+    obstacles = _base_obstacles(rng, OBSTACLE_VARIANTS[index % len(OBSTACLE_VARIANTS)],
+                                 cab.interior_min[2]) if level >= 3 else []
+    extra = {"obstacle_variant": OBSTACLE_VARIANTS[index % len(OBSTACLE_VARIANTS)] if level >= 3 else "",
+             "target_row": comp.row, "target_in_corner_compartment": bool(comp.corner)}
+    return SceneSpec(level=level, index=index, seed=(), cabinet=cab, target=target, clutter=tuple(b.objects),
+                     base_obstacles=tuple(obstacles), extra=extra)

@@ -1,16 +1,197 @@
-"""The simulator's door to ground truth for ablations and metrics (never for methods)."""
+"""The one door to ground truth, for certification and metrics (never for methods).
+
+Sections: (1) target visibility, (2) collision checking of the ground-truth geometry with the
+planner's own sphere model, (3) ground-truth grasps. Later sections (detection truth) follow
+at the end of the file. Code outside `sim/` reaches ground truth only through this module.
+World frame, lengths [m], angles [rad].
+"""
 from __future__ import annotations
 
-# --- perception and trial oracles ---
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+
+from ..geometry import make_T
+from ..motion.primitives import PrimitiveSet
+from ..perception.detector import Detection, Verdict
+from ..perception.target import backproject_image, upright_extents
+from ..motion.validity import ValidityChecker, ValidityConfig
+from ..robot.ik import PandaIK
+from ..robot.kinematics import PandaKinematics
+from ..robot.model import GRIPPER_MAX_WIDTH, RobotConfig
+from ..robot.spheres import panda_sphere_model
+from .fixed_views import reference_fixed_views
+from .scenes import SceneSpec
+from .world import World
+
+# ---------------------------------------------------------------- (1) target visibility
+
+
+def target_visibility(world: World, q: np.ndarray | None = None) -> float:
+    """Visible fraction of the target from the wrist camera at q (current q if None)."""
+    return world.target_visibility(q)
+
+
+def start_visibility(world: World) -> float:
+    """Visible fraction of the target from the wrist camera at the home configuration."""
+    return world.target_visibility(np.asarray(world.robot.q_home))
+
+
+def fixed_view_visibilities(world: World) -> list[float]:
+    """Visible fraction of the target from each pose of the reference fixed-view set
+    (`fixed_views.reference_fixed_views` of the scene's Task), with only the scene in the way."""
+    return [world.visibility_from(T, with_robot=False) for T in reference_fixed_views(world.scene.task().space)]
+
+
+# ------------------------------------------------- (2) ground-truth collision checking
+
+
+def scene_obstacles(scene: SceneSpec, exclude_target: bool = False, base_obstacles: bool = True) -> PrimitiveSet:
+    """The scene's ground-truth geometry (floor, boards, objects, base obstacles) as a PrimitiveSet."""
+    items = scene.cabinet.boards() + (list(scene.base_obstacles) if base_obstacles else [])
+    items += [p for o in scene.clutter for p in o.parts]
+    if not exclude_target:
+        items += list(scene.target.parts)
+    return PrimitiveSet.from_shapes(items, floor_z=scene.floor_z)
+
+
+def ground_truth_checker(scene: SceneSpec, finger_width: float = GRIPPER_MAX_WIDTH, exclude_target: bool = False,
+                         base_obstacles: bool = True, margin: float = 0.0) -> ValidityChecker:
+    """The planner's `ValidityChecker` (conservative sphere model of the arm, hand and camera
+    with the fingers at finger_width [m]) on the scene's ground-truth geometry."""
+    robot = RobotConfig(base_pos=scene.robot_base_pos, base_yaw=scene.robot_base_yaw)
+    spheres = panda_sphere_model(robot, finger_width)
+    return ValidityChecker(spheres, None, scene_obstacles(scene, exclude_target, base_obstacles),
+                           ValidityConfig(margin=margin))
+
+
+@lru_cache(maxsize=4)
+def robot_ik(robot: RobotConfig) -> PandaIK:
+    """A cached IK solver of the robot (base pose, camera)."""
+    return PandaIK(PandaKinematics(robot))
+
+
+# ------------------------------------------------------------ (3) ground-truth grasps
+
+
+@dataclass(frozen=True, eq=False)
+class GroundTruthGrasp:
+    """A grasp found with ground truth. T_world_tcp: TCP pose at the grasp (z = approach
+    direction, y = closing axis); approach_deg: angle of the approach below the horizontal
+    (0 = from the side, 90 = from above); q_grasp, q_pregrasp (TCP `PREGRASP_BACK` m back
+    along the approach) and q_lift (TCP `LIFT_HEIGHT` m higher) [rad]."""
+
+    T_world_tcp: np.ndarray
+    approach_deg: float
+    q_grasp: np.ndarray
+    q_pregrasp: np.ndarray
+    q_lift: np.ndarray
+
+
+PREGRASP_BACK = 0.10
+LIFT_HEIGHT = 0.04
+MAX_GRASP_WIDTH = GRIPPER_MAX_WIDTH - 0.012
+#: approach angles below the horizontal [deg] and yaws about +x [rad] of the candidates
+APPROACH_PITCH_DEG = (0.0, 15.0, 30.0, 45.0, 60.0, 75.0, 90.0)
+APPROACH_YAW = (0.0, 0.3, -0.3, 0.6, -0.6, 0.9, -0.9)
+
+
+def grasp_candidates(scene: SceneSpec) -> list[tuple[np.ndarray, float]]:
+    """Antipodal candidate TCP poses (T_world_tcp, approach_deg) on the target, ordered by the
+    angle between the approach and the opening's inward normal (+x): side approaches first.
+
+    The closing axis is horizontal; for boxes it is a face normal (the fingers close on two
+    parallel faces). The TCP sits on the grasped part's axis 2.5 cm below its top (lower, the
+    forearm's conservative spheres reach the shelf the target stands on).
+    Both rolls of the hand are candidates (the one with the wrist camera above first).
+    """
+    tgt = scene.target
+    body = tgt.parts[0]
+    h = body.half_extents
+    top = body.pos[2] + h[2]
+    if body.shape == "box":  # approach along a face normal: the fingers close on the other two faces
+        yaws = []
+        for k in range(4):
+            yaw = float((body.yaw + k * np.pi / 2 + np.pi) % (2 * np.pi) - np.pi)
+            if abs(yaw) <= 0.95:
+                yaws.append((yaw, 2 * float(h[1] if k % 2 == 0 else h[0])))
+    else:
+        yaws = [(yaw, 2 * float(h[0])) for yaw in APPROACH_YAW]
+    out = []
+    for pitch_deg in APPROACH_PITCH_DEG:
+        pitch = np.radians(pitch_deg)
+        for yaw, width in (yaws if pitch_deg < 90 else yaws[:1]):
+            if width > MAX_GRASP_WIDTH:
+                continue
+            a = np.array([np.cos(yaw) * np.cos(pitch), np.sin(yaw) * np.cos(pitch), -np.sin(pitch)])
+            p = np.array([body.pos[0], body.pos[1], top - 0.025])
+            for sign in (-1.0, 1.0):  # closing axis horizontal, normal to a; camera above the hand first
+                y = sign * np.array([-np.sin(yaw), np.cos(yaw), 0.0])
+                T = make_T(np.column_stack([np.cross(y, a), y, a]), p)
+                key = float(np.arccos(np.clip(a[0], -1.0, 1.0))) + (0.0 if T[2, 0] >= -1e-9 else 1e-3)
+                out.append((key, T, float(pitch_deg)))
+    out.sort(key=lambda c: c[0])
+    return [(T, deg) for _, T, deg in out]
+
+
+def grasp_solutions(ik: PandaIK, T_world_tcp: np.ndarray, q_ref: np.ndarray, n_q7: int = 12) -> np.ndarray:
+    """IK solutions (k,7) [rad] of a grasp pose, nearest to q_ref first."""
+    return ik.solve(T_world_tcp, "tcp", q_ref, n_q7, retry=False).solutions
+
+
+def _near(ik: PandaIK, T: np.ndarray, q: np.ndarray) -> np.ndarray | None:
+    r = ik.solve(T, "tcp", q, 2, retry=False)
+    return r.best if r.success and np.max(np.abs(r.best - q)) < 0.6 else None
+
+
+def first_valid_grasp(ik: PandaIK, T_world_tcp: np.ndarray, sols: np.ndarray, full: ValidityChecker,
+                      no_target: ValidityChecker, world: World | None = None):
+    """(q_grasp, q_pregrasp, q_lift) for the first IK solution whose grasp, pre-grasp (TCP
+    PREGRASP_BACK back along the approach), lift (TCP LIFT_HEIGHT up) and the straight joint
+    segments pre-grasp -> grasp -> lift are collision-free (the target excluded except at the
+    pre-grasp: the fingers close around it), or None. With a world, the grasp must also be
+    free of ground-truth (MuJoCo) contacts with the fingers open."""
+    if len(sols) == 0:
+        return None
+    a = T_world_tcp[:3, 2]
+    T_pre, T_lift = T_world_tcp.copy(), T_world_tcp.copy()
+    T_pre[:3, 3] -= PREGRASP_BACK * a
+    T_lift[2, 3] += LIFT_HEIGHT
+    for q in sols[no_target.are_valid(sols)]:
+        if world is not None and world.in_collision(q, GRIPPER_MAX_WIDTH, include_self=True):
+            continue
+        pre = _near(ik, T_pre, q)
+        if pre is None or not full.is_valid(pre) or not no_target.edge_valid(pre, q):
+            continue
+        lift = _near(ik, T_lift, q)
+        if lift is None or not no_target.is_valid(lift) or not no_target.edge_valid(q, lift):
+            continue
+        return q, pre, lift
+    return None
+
+
+def find_grasp(world: World, q_ref: np.ndarray | None = None, max_candidates: int | None = None) -> GroundTruthGrasp | None:
+    """The first ground-truth grasp (side approaches first) that is reachable and collision-free
+    with its pre-grasp and lift, or None."""
+    scene = world.scene
+    ik = robot_ik(world.robot)
+    q_ref = np.asarray(world.robot.q_home) if q_ref is None else q_ref
+    full = ground_truth_checker(scene)
+    no_target = ground_truth_checker(scene, exclude_target=True)
+    for T, deg in grasp_candidates(scene)[:max_candidates]:
+        found = first_valid_grasp(ik, T, grasp_solutions(ik, T, q_ref), full, no_target, world)
+        if found is not None:
+            return GroundTruthGrasp(T, deg, *found)
+    return None
+
+
+# ------------------------------------------ (4) perception and trial oracles
 # Segmentation-label detector (an explicitly named oracle for ablations), the truth check
 # of an accepted detection, the target's surroundings box for the explored-fraction metric
 # and the best view of the target (for grasp-only runs). Only trial/, bench/ and tests use
 # these; methods never do.
 
-import numpy as np
-
-from ..perception.detector import Detection, Verdict
-from ..perception.target import backproject_image, upright_extents
 
 
 class OracleSegmentationDetector:

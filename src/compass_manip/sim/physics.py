@@ -89,14 +89,15 @@ class PhysicsSession:
     def body_pos(self, name: str) -> np.ndarray:
         return self.data.xpos[self.model.body(name).id].copy()
 
-    def touching(self, geom_name: str) -> int:
-        """Number of finger pads in contact with a geom."""
-        g = self.model.geom(geom_name).id
+    def touching(self, geom_names) -> int:
+        """Number of finger pads in contact with a geom (name) or any of several geoms."""
+        names = [geom_names] if isinstance(geom_names, str) else list(geom_names)
+        geoms = {self.model.geom(n).id for n in names}
         pads = set()
         for i in range(self.data.ncon):
             c = self.data.contact[i]
             pair = {int(c.geom1), int(c.geom2)}
-            if g in pair:
+            if pair & geoms:
                 pads |= pair & self._finger_geoms
         return len(pads)
 
@@ -117,5 +118,5 @@ def grasp_and_lift(world: World, q_pregrasp: np.ndarray, approach: Trajectory, l
     width = sim.finger_width
     sim.track(lift, settle=0.5)
     dz = float(sim.body_pos(name)[2] - z0)
-    in_hand = sim.touching(name) == 2
+    in_hand = sim.touching([p.name for p in world.scene.target.parts]) == 2
     return GraspOutcome(bool(dz >= min_lift and in_hand), dz, width, in_hand, sim.t)

@@ -1,9 +1,11 @@
 """The MuJoCo world of one scene: model building, rendering, ray-cast depth, contacts.
 
 Geom groups: 0 robot visuals, 1 static scene (floor, cabinet, base obstacles), 2 clutter,
-3 target, 5 finger collision boxes (not rendered, not ray cast). Segmentation labels:
-0 background, 1 robot, 2 floor, 3.. one per scene primitive in `SceneSpec.all_primitives()`
-order (the target is last).
+3 target, 5 finger collision boxes (not rendered, not ray cast). Each object is one body
+(free in physics) with one geom per part. Segmentation labels: 0 background, 1 robot,
+2 floor, 3.. one per static primitive (`SceneSpec.static_primitives()` order), then one per
+object (`SceneSpec.objects` order, the target last). Segmentation is ground truth: it is
+rendered only when asked for (`render(seg=True)`).
 """
 from __future__ import annotations
 
@@ -17,11 +19,12 @@ from ..geometry import make_T
 from ..robot.model import (FINGER_JOINTS, GRIPPER_MAX_WIDTH, MJCAM_TO_CV, RobotConfig, build_robot_spec,
                            check_q)
 from ..types import Frame
-from .scenes import Primitive, SceneSpec
+from .scenes import Primitive, SceneObject, SceneSpec
 
 GROUP_ROBOT, GROUP_STATIC, GROUP_CLUTTER, GROUP_TARGET = 0, 1, 2, 3
 _RAY_GROUPS = np.array([1, 1, 1, 1, 0, 0], dtype=np.uint8)
 _TARGET_ONLY = np.array([0, 0, 0, 1, 0, 0], dtype=np.uint8)
+_SCENE_GROUPS = np.array([0, 1, 1, 1, 0, 0], dtype=np.uint8)
 LABEL_BACKGROUND, LABEL_ROBOT, LABEL_FLOOR = 0, 1, 2
 
 
@@ -39,18 +42,31 @@ def _yaw_quat(yaw: float) -> list[float]:
     return [math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)]
 
 
-def _add_primitive(spec, parent, p: Primitive, group: int, free: bool) -> None:
-    gtype = {"box": mujoco.mjtGeom.mjGEOM_BOX, "cylinder": mujoco.mjtGeom.mjGEOM_CYLINDER,
-             "sphere": mujoco.mjtGeom.mjGEOM_SPHERE}[p.shape]
-    size = list(p.size) + [0.0] * (3 - len(p.size))
-    if free:
-        body = parent.add_body(name=p.name, pos=list(p.pos), quat=_yaw_quat(p.yaw))
-        body.add_freejoint(name=f"{p.name}_free")
-        body.add_geom(name=p.name, type=gtype, size=size, rgba=list(p.rgba), group=group, mass=p.mass,
+def _geom_type(shape: str):
+    return {"box": mujoco.mjtGeom.mjGEOM_BOX, "cylinder": mujoco.mjtGeom.mjGEOM_CYLINDER,
+            "sphere": mujoco.mjtGeom.mjGEOM_SPHERE}[shape]
+
+
+def _size3(p: Primitive) -> list[float]:
+    return list(p.size) + [0.0] * (3 - len(p.size))
+
+
+def _add_static(spec, p: Primitive) -> None:
+    spec.worldbody.add_geom(name=p.name, type=_geom_type(p.shape), size=_size3(p), pos=list(p.pos),
+                            quat=_yaw_quat(p.yaw), rgba=list(p.rgba), group=GROUP_STATIC)
+
+
+def _add_object(spec, obj: SceneObject, group: int) -> None:
+    """One free body at the object's bounding-box centre, one geom per part; the mass is
+    shared among the parts by volume."""
+    origin = obj.pos
+    body = spec.worldbody.add_body(name=obj.name, pos=list(origin))
+    body.add_freejoint(name=f"{obj.name}_free")
+    volume = sum(p.volume for p in obj.parts)
+    for p in obj.parts:
+        body.add_geom(name=p.name, type=_geom_type(p.shape), size=_size3(p), pos=list(np.asarray(p.pos) - origin),
+                      quat=_yaw_quat(p.yaw), rgba=list(p.rgba), group=group, mass=obj.mass * p.volume / volume,
                       friction=[1.0, 0.01, 0.001], condim=4)
-    else:
-        parent.add_geom(name=p.name, type=gtype, size=size, pos=list(p.pos), quat=_yaw_quat(p.yaw),
-                        rgba=list(p.rgba), group=group)
 
 
 def build_model(scene: SceneSpec, robot: RobotConfig | None = None) -> mujoco.MjModel:
@@ -70,10 +86,10 @@ def build_model(scene: SceneSpec, robot: RobotConfig | None = None) -> mujoco.Mj
     wb.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[3.0, 3.0, 0.05],
                 pos=[0.0, 0.0, scene.floor_z], rgba=[0.82, 0.82, 0.8, 1.0], group=GROUP_STATIC)
     for p in scene.static_primitives():
-        _add_primitive(spec, wb, p, GROUP_STATIC, free=False)
-    for p in scene.clutter:
-        _add_primitive(spec, wb, p, GROUP_CLUTTER, free=p.movable)
-    _add_primitive(spec, wb, scene.target, GROUP_TARGET, free=scene.target.movable)
+        _add_static(spec, p)
+    for obj in scene.clutter:
+        _add_object(spec, obj, GROUP_CLUTTER)
+    _add_object(spec, scene.target, GROUP_TARGET)
     return spec.compile()
 
 
@@ -100,18 +116,24 @@ class World:
         body_root = m.body_rootid
         base_body = m.body("panda_link0").id
         self.is_robot_geom = body_root[m.geom_bodyid] == base_body
-        names = [p.name for p in scene.all_primitives()]
+        names = [p.name for p in scene.static_primitives()] + [o.name for o in scene.objects]
         self.labels = {"background": LABEL_BACKGROUND, "robot": LABEL_ROBOT, "floor": LABEL_FLOOR}
         self.labels.update({n: i + 3 for i, n in enumerate(names)})
         self.target_label = self.labels[scene.target.name]
+        part_owner = {p.name: o.name for o in scene.objects for p in o.parts}
         self.geom_label = np.zeros(m.ngeom, dtype=np.int32)
         for g in range(m.ngeom):
             name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g)
             if self.is_robot_geom[g]:
                 self.geom_label[g] = LABEL_ROBOT
+            elif name in part_owner:
+                self.geom_label[g] = self.labels[part_owner[name]]
             elif name in self.labels:
                 self.geom_label[g] = self.labels[name]
-        self.target_geom = m.geom(scene.target.name).id
+        #: geom ids of the target's parts, and a mask over all geoms
+        self.target_geoms = np.array([m.geom(p.name).id for p in scene.target.parts], dtype=np.int32)
+        self.is_target_geom = np.zeros(m.ngeom, dtype=bool)
+        self.is_target_geom[self.target_geoms] = True
         self._floor_geom = m.geom("floor").id
         self._base_geom = m.geom("link0").id
         self._robot_body_depth = self._robot_tree_depth()
@@ -177,9 +199,11 @@ class World:
         seg[is_geom] = self.geom_label[ids[is_geom]]
         return seg
 
-    def render(self, q: np.ndarray | None = None, t: float = 0.0, rgb: bool = True, seg: bool = True,
+    def render(self, q: np.ndarray | None = None, t: float = 0.0, rgb: bool = True, seg: bool = False,
                raycast: bool = False) -> Frame:
         """A wrist-camera Frame at q (default: the current configuration) at time t [s].
+
+        seg=True adds ground-truth segmentation labels (for metrics and figures only).
 
         raycast=True computes depth with `mj_multiRay` instead of OpenGL (no GL needed;
         RGB and segmentation are then not available).
@@ -294,27 +318,35 @@ class World:
         return f"{mujoco.mj_id2name(self.model, mujoco.mjtObj.mjOBJ_BODY, self.model.geom_bodyid[g])}/geom{g}"
 
     def target_visibility(self, q: np.ndarray | None = None, stride: int = 1) -> float:
-        """Fraction of the target's unoccluded image area that is visible from the camera at q.
-
-        Rays are cast through the pixels of the target's projected bounding box, once
-        against the whole scene and once against the target alone; the ratio of target
-        hits is returned (0 when the target is out of the image or beyond depth_max).
-        """
+        """Fraction of the target's unoccluded image area visible from the wrist camera at q
+        (the robot's own body may occlude it). See `visibility_from`."""
         if q is not None:
             self.set_q(q)
-        T = self.T_world_cam()
-        px = self._target_pixels(T, stride)
+        return self.visibility_from(self.T_world_cam(), stride)
+
+    def visibility_from(self, T_world_cam: np.ndarray, stride: int = 1, with_robot: bool = True) -> float:
+        """Fraction of the target's unoccluded image area visible from a camera at T_world_cam.
+
+        Rays are cast through the pixels of the target's projected bounding box, once
+        against the scene (with or without the robot at its current configuration) and once
+        against the target alone; the ratio of target hits within the depth range is returned
+        (0 when the target is out of the image or beyond depth_max).
+        """
+        px = self._target_pixels(T_world_cam, stride)
         if px is None:
             return 0.0
         dirs = self._pixel_dirs_cam().reshape(self.camera.height, self.camera.width, 3)[px[1], px[0]]
-        dirs_w = dirs @ T[:3, :3].T
-        dist_all, gid_all = self.cast_rays(T[:3, 3], dirs_w)
-        dist_t, gid_t = self.cast_rays(T[:3, 3], dirs_w, _TARGET_ONLY)
+        dirs_w = dirs @ T_world_cam[:3, :3].T
+        dist_all, gid_all = self.cast_rays(T_world_cam[:3, 3], dirs_w, _RAY_GROUPS if with_robot else _SCENE_GROUPS)
+        dist_t, gid_t = self.cast_rays(T_world_cam[:3, 3], dirs_w, _TARGET_ONLY)
         in_range = (dist_t > self.camera.depth_min) & (dist_t <= self.camera.depth_max)
-        alone = np.count_nonzero((gid_t == self.target_geom) & in_range)
+        alone = np.count_nonzero((gid_t >= 0) & in_range)
         if alone == 0:
             return 0.0
-        seen = np.count_nonzero((gid_all == self.target_geom) & in_range)
+        hit_t = np.zeros(len(gid_all), dtype=bool)
+        ok = gid_all >= 0
+        hit_t[ok] = self.is_target_geom[gid_all[ok]]
+        seen = np.count_nonzero(hit_t & in_range)
         return seen / alone
 
     def _target_pixels(self, T_world_cam: np.ndarray, stride: int):
@@ -345,7 +377,8 @@ def render_overview(world: World, width: int = 640, height: int = 480, azimuth: 
     The cabinet's top and side boards are drawn see-through so the inside shows.
     """
     m = world.model
-    see_through = [m.geom(n).id for n in ("cab_top", "cab_left", "cab_right")]
+    see_through = [m.geom(p.name).id for p in world.scene.cabinet.boards()
+                   if p.name in ("cab_top", "cab_left", "cab_right") or p.name.startswith(("frame_", "cab_shelf"))]
     alpha = m.geom_rgba[see_through, 3].copy()
     renderer = mujoco.Renderer(m, height, width)
     try:
