@@ -11,7 +11,8 @@ from compass_manip.motion.timing import time_parameterize
 from compass_manip.motion.validity import ValidityChecker
 from compass_manip.robot.model import Q_MAX, Q_MIN
 from compass_manip.robot.spheres import panda_sphere_model
-from compass_manip.sim.certify import certified_scene, find_grasp
+from compass_manip.sim.certify import certified_scene
+from compass_manip.sim.oracle import find_grasp
 from compass_manip.sim.executor import ExecutorConfig, execute
 from compass_manip.sim.world import World
 from compass_manip.types import Trajectory

@@ -10,6 +10,7 @@ import time
 import numpy as np
 
 from ..errors import CompassInputError
+from ..paths import check_output_dir
 
 HELP = "generate and certify the confined scenes of a level; print their difficulty"
 
@@ -62,6 +63,9 @@ def run(args) -> int:
         raise CompassInputError(f"--count {args.count} is not allowed; use 1..1000")
     if args.seed < 0 or args.seed >= 2**63:
         raise CompassInputError(f"--seed {args.seed} is not allowed; use 0 <= seed < 2**63")
+
+    if args.out:
+        args.out = check_output_dir(args.out)  # before any work
 
     from tqdm import tqdm
 

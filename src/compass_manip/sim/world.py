@@ -15,6 +15,7 @@ from dataclasses import dataclass, replace
 import mujoco
 import numpy as np
 
+from ..errors import CompassInputError
 from ..geometry import make_T
 from ..robot.model import (FINGER_JOINTS, GRIPPER_MAX_WIDTH, MJCAM_TO_CV, RobotConfig, build_robot_spec,
                            check_q)
@@ -145,7 +146,11 @@ class World:
         q = check_q(q)
         self.data.qpos[:7] = q
         if finger_width is not None:
-            w = float(np.clip(finger_width, 0.0, GRIPPER_MAX_WIDTH)) / 2
+            if not (isinstance(finger_width, (int, float, np.integer, np.floating))
+                    and 0.0 <= finger_width <= GRIPPER_MAX_WIDTH):
+                raise CompassInputError(f"finger_width {finger_width!r} m is not allowed; "
+                                        f"use 0..{GRIPPER_MAX_WIDTH} m")
+            w = float(finger_width) / 2
             for a in self._finger_qpos:
                 self.data.qpos[a] = w
         mujoco.mj_kinematics(self.model, self.data)
