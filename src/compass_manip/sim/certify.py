@@ -34,6 +34,7 @@ from . import oracle
 from .levels import check_level, generate_scene
 from .oracle import GroundTruthGrasp, find_grasp  # noqa: F401  (re-exported for older callers)
 from .physics import grasp_and_lift
+from . import scene_cache
 from .scenes import SceneSpec
 from .world import World
 
@@ -342,11 +343,14 @@ def _grasps(world: World, config: CertifyConfig, ik, full, no_target, obstacles:
     return found, n_with, n_without
 
 
-def certified_scene(level: int, index: int, seed: int = 0, config: CertifyConfig | None = None) -> CertifiedScene:
+def certified_scene(level: int, index: int, seed: int = 0, config: CertifyConfig | None = None,
+                    cache: bool = True) -> CertifiedScene:
     """The first candidate of (seed, level, index) that passes certification.
 
     Sub-seed k uses `np.random.default_rng([seed, level, index, k])`; the accepted sub-seed
     is stored in `SceneSpec.seed`, so `regenerate(scene.seed)` gives the same scene.
+    cache: read and write the disk cache of certified scenes (`sim.scene_cache`); False
+    certifies afresh (e.g. to measure certification time).
     """
     level = check_level(level)
     config = config or CertifyConfig()
@@ -354,11 +358,16 @@ def certified_scene(level: int, index: int, seed: int = 0, config: CertifyConfig
         raise CompassInputError(f"scene index {index!r} is not allowed; use an integer >= 0")
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise CompassInputError(f"seed {seed!r} is not allowed; use an integer >= 0")
+    path = scene_cache.entry_path(level, int(index), int(seed), config)
+    if cache and (hit := scene_cache.load(path, Certificate, CertFailure)) is not None:
+        return CertifiedScene(*hit)
     rejections = []
     for attempt in range(config.max_attempts):
         scene = regenerate((int(seed), level, int(index), attempt))
         cert = certify(scene, config)
         if cert.certified:
+            if cache:
+                scene_cache.store(path, scene, cert, attempt + 1, rejections)
             return CertifiedScene(scene, cert, attempt + 1, tuple(rejections))
         rejections.append(cert.failure.name)
     raise RuntimeError(
