@@ -14,9 +14,10 @@ reached along its tree path, shortcut and re-validated as COMPASS's is; like DSV
 path is executed.
 
 Global stage (DSVP's dual stage): when no tree node gains enough, the frontier clusters of
-the map inside the exploration bounds (the interior grown by `global_margin` [m]) (nearest camera distance first, up to `global_tries`) each give a view looking into
-their unknown side from `global_distance` [m]; the first one the shared planner reaches is
-executed. No frontier left: EXPLORED; none reachable: NO_REACHABLE_VIEW.
+the map inside the exploration bounds (the interior grown by `global_margin` [m]) (nearest camera distance first, up to `global_tries`) each give `global_samples` views
+looking into their unknown side (cone `global_cone` [rad], distance `global_distance`
+[m]); the valid IK solutions go to the shared planner and the first cluster it reaches is
+executed (a cluster with valid views but no plan is a failed plan for MPSR). No frontier left: EXPLORED; none reachable: NO_REACHABLE_VIEW.
 """
 from __future__ import annotations
 
@@ -34,7 +35,7 @@ from .base import Decision, Phase, StopReason
 from .baseline_common import MapMethod, ViewPlanningConfig, interior_box, plan_to, timed
 from .mue_rrt import shortcut
 from .utility import motion_cost
-from .viewpoints import view_configurations, view_pose
+from .viewpoints import sample_direction_in_cone, view_configurations, view_pose
 from .world_model import WorldModelConfig
 
 
@@ -44,8 +45,9 @@ class GSEConfig:
     check step; local_range [rad] (inf: the whole joint range); capacity nodes; rays and
     gain_range [m] of G; roi_margin [m]; min_gain [voxels]; path_lambda [1/rad] NBVP's cost
     discount; min_view_change [m] / [rad]; max_attempts best nodes tried when the final path
-    fails; verify_resolution [rad]; global_tries frontier views tried; global_distance
-    [m]; global_margin [m]: frontiers count within the interior grown by it (the
+    fails; verify_resolution [rad]; global_tries frontier clusters tried; global_samples views
+    per cluster, in a cone of global_cone [rad] around its unknown side, from
+    global_distance (min, max) [m] of its centroid (valid IK solutions go to the planner); global_margin [m]: frontiers count within the interior grown by it (the
     exploration bounds); ik_q7 / ik_solutions of the global views; planning: the shared planner."""
 
     iterations: int = 60
@@ -62,7 +64,9 @@ class GSEConfig:
     max_attempts: int = 3
     verify_resolution: float = 0.005
     global_tries: int = 4
-    global_distance: float = 0.35
+    global_distance: tuple[float, float] = (0.2, 0.5)
+    global_samples: int = 8
+    global_cone: float = 0.6
     global_margin: float = 0.1
     ik_q7: int = 4
     ik_solutions: int = 2
@@ -153,11 +157,20 @@ class GSEMethod(MapMethod):
         attempted = succeeded = 0
         for i in np.argsort(dist, kind="stable")[: cfg.global_tries]:
             c = frontiers[int(i)]
-            T = view_pose(c.centroid_world, c.direction, cfg.global_distance, 0.0)
-            S = view_configurations(self.ik, T, self.world.q, cfg.ik_q7, cfg.ik_solutions)
+            S = []
+            for _ in range(cfg.global_samples):
+                d = sample_direction_in_cone(c.direction, cfg.global_cone, self.rng)
+                T = view_pose(c.centroid_world, d, self.rng.uniform(*cfg.global_distance),
+                              self.rng.uniform(-np.pi / 2, np.pi / 2))
+                S.extend(view_configurations(self.ik, T, self.world.q, cfg.ik_q7, cfg.ik_solutions))
+            if not S:
+                continue
+            S = np.array(S)
+            S = S[self.world.checker.are_valid(S)]
             if len(S) == 0:
                 continue
             attempted += 1
+            S = S[np.argsort(np.linalg.norm(S - self.world.q, axis=1), kind="stable")]
             path = plan_to(self.world, S, cfg.planning, self.rng)
             if path is None:
                 continue

@@ -32,12 +32,14 @@ ORACLE_METHOD = "oracle"
 
 @dataclass(frozen=True)
 class OracleConfig:
-    """n_views sampled per decision; distance (min, max) [m] of the camera from the
+    """n_views sampled per round, up to `rounds` rounds per decision until some view is
+    valid; distance (min, max) [m] of the camera from the
     target; cone [rad]; ik_q7 / ik_solutions; target_clearance [m]; revisit_radius [m];
     max_attempts plans per decision; planning: the shared planner."""
 
     n_views: int = 48
-    distance: tuple[float, float] = (0.25, 0.5)
+    rounds: int = 4
+    distance: tuple[float, float] = (0.25, 0.8)
     cone: float = 0.9
     ik_q7: int = 3
     ik_solutions: int = 2
@@ -70,6 +72,29 @@ class OracleMethod(MapMethod):
     def decide(self) -> Decision:
         t0 = time.perf_counter()
         cfg, rng = self.config, self.rng
+        Q, cams = np.zeros((0, 7)), np.zeros((0, 3))
+        for _ in range(cfg.rounds):
+            Q, cams = self._candidates()
+            if len(Q):
+                break
+        attempted = succeeded = 0
+        stats = {"candidates": len(Q)}
+        if len(Q) == 0:
+            return timed(Decision(None, StopReason.NO_REACHABLE_VIEW, Phase.EXPLORE, stats=stats), t0)
+        for k in np.argsort(np.linalg.norm(Q - self.world.q, axis=1), kind="stable")[: cfg.max_attempts]:
+            attempted += 1
+            path = plan_to(self.world, Q[k][None], cfg.planning, rng)
+            if path is None:
+                continue
+            succeeded += 1
+            self.visited.append(cams[k])
+            return timed(Decision(path, None, Phase.EXPLORE, attempted, succeeded, stats=stats), t0)
+        return timed(Decision(None, StopReason.PLANNING_FAILED, Phase.EXPLORE, attempted, succeeded, stats=stats), t0)
+
+    def _candidates(self) -> tuple[np.ndarray, np.ndarray]:
+        """Valid view configurations (n, 7) [rad] with a clear line of sight, and their
+        camera positions (n, 3) [m]."""
+        cfg, rng = self.config, self.rng
         out = np.asarray(self.task.space.outward, float)
         Q, cams = [], []
         for _ in range(cfg.n_views):
@@ -83,23 +108,11 @@ class OracleMethod(MapMethod):
             for q in view_configurations(self.ik, T, self.world.q, cfg.ik_q7, cfg.ik_solutions):
                 Q.append(q)
                 cams.append(cam)
-        attempted = succeeded = 0
-        if Q:
-            Q = np.array(Q)
-            ok = self.world.checker.are_valid(Q)
-            Q, cams = Q[ok], np.array(cams)[ok]
-        stats = {"candidates": len(Q)}
-        if len(Q) == 0:
-            return timed(Decision(None, StopReason.NO_REACHABLE_VIEW, Phase.EXPLORE, stats=stats), t0)
-        for k in np.argsort(np.linalg.norm(Q - self.world.q, axis=1), kind="stable")[: cfg.max_attempts]:
-            attempted += 1
-            path = plan_to(self.world, Q[k][None], cfg.planning, rng)
-            if path is None:
-                continue
-            succeeded += 1
-            self.visited.append(cams[k])
-            return timed(Decision(path, None, Phase.EXPLORE, attempted, succeeded, stats=stats), t0)
-        return timed(Decision(None, StopReason.PLANNING_FAILED, Phase.EXPLORE, attempted, succeeded, stats=stats), t0)
+        if not Q:
+            return np.zeros((0, 7)), np.zeros((0, 3))
+        Q, cams = np.array(Q), np.array(cams)
+        ok = self.world.checker.are_valid(Q)
+        return Q[ok], cams[ok]
 
 
 def make_oracle_method(scene, task, compass_config, rng: np.random.Generator, q_start, K,

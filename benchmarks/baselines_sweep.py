@@ -1,0 +1,74 @@
+"""The small parameter sweep behind the baselines' defaults (issue 10, docs/baselines.md).
+
+Each variant is a registered baseline with one or two fields changed; every variant runs
+the same development trials (levels x scenes, seed 101 by default). One JSON line per
+trial is appended to --out as trials finish.
+
+    python benchmarks/baselines_sweep.py --levels 1 2 --scenes 0 1 --seed 101 --workers 2 \
+        --out outputs/baselines_sweep.jsonl
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import time
+import traceback
+from dataclasses import replace
+from multiprocessing import Pool
+
+import numpy as np
+
+
+def variants() -> dict:
+    from compass_manip.exploration.baselines import FV_CONFIG, GSE_CONFIG, IG_CONFIGS, fv_factory, gse_factory, \
+        ig_factory
+
+    ig = IG_CONFIGS["ig"]
+    return {
+        "fv": fv_factory("fv", FV_CONFIG),
+        "fv|rows3": fv_factory("fv|rows3", replace(FV_CONFIG, heights=(0.8, 0.5, 0.2))),
+        "fv|rows3-close": fv_factory("fv|rows3-close", replace(FV_CONFIG, heights=(0.8, 0.5, 0.2), standoff=0.15)),
+        "ig": ig_factory("ig", ig),
+        "ig|aim-centre": ig_factory("ig|aim-centre", replace(ig, aim_spread=0.0)),
+        "gse": gse_factory("gse", GSE_CONFIG),
+        "gse|global-range": gse_factory("gse|global-range", replace(GSE_CONFIG, local_range=np.inf)),
+        "gse|lambda0": gse_factory("gse|lambda0", replace(GSE_CONFIG, path_lambda=0.0)),
+    }
+
+
+def _run(job):
+    name, level, scene, seed = job
+    from compass_manip.exploration import registry
+    from compass_manip.trial.runner import TrialSpec, run_trial
+
+    registry.METHODS.setdefault(name, variants()[name])
+    t0 = time.perf_counter()
+    try:
+        rec = run_trial(TrialSpec(name, level, scene, 0, seed)).to_dict()
+        rec.pop("explored_curve", None)
+    except Exception as exc:  # recorded, counted as an error in the summary
+        rec = {"method": name, "level": level, "scene": scene, "seed": seed, "error": repr(exc),
+               "traceback": traceback.format_exc()}
+    rec["wall_s"] = time.perf_counter() - t0
+    return rec
+
+
+def main() -> None:
+    p = argparse.ArgumentParser()
+    p.add_argument("--levels", type=int, nargs="+", default=[1, 2])
+    p.add_argument("--scenes", type=int, nargs="+", default=[0, 1])
+    p.add_argument("--seed", type=int, default=101)
+    p.add_argument("--variants", nargs="+", default=None)
+    p.add_argument("--workers", type=int, default=2)
+    p.add_argument("--out", required=True)
+    a = p.parse_args()
+    names = a.variants or list(variants())
+    jobs = [(n, lv, sc, a.seed) for n in names for lv in a.levels for sc in a.scenes]
+    with Pool(a.workers) as pool, open(a.out, "a") as f:
+        for rec in pool.imap_unordered(_run, jobs):
+            f.write(json.dumps(rec) + "\n")
+            f.flush()
+
+
+if __name__ == "__main__":
+    main()
