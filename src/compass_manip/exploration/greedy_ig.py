@@ -1,7 +1,7 @@
 """IG: greedy next-best view by volumetric information (Isler et al., ICRA 2016).
 
 Each decision samples `n_views` candidate camera poses on a view hemisphere in front of
-the opening: the camera at a distance in `radius` [m] from the region of interest's centre
+the opening (a new sample, up to `rounds` in all, while no view is worth going to): the camera at a distance in `radius` [m] from the region of interest's centre
 (the confined space's interior), in a direction drawn uniformly within `cone` [rad] of the
 space's outward normal, looking at the centre (Isler's view sphere around the object);
 with `aim_spread` > 0 the look-at point is drawn uniformly in the ROI box shrunk to that
@@ -32,7 +32,7 @@ from .world_model import WorldModelConfig
 
 @dataclass(frozen=True)
 class GreedyIGConfig:
-    """formulation; n_views candidate poses per decision; radius (min, max) [m] of the view
+    """formulation; n_views candidate poses per sample, rounds samples at most; radius (min, max) [m] of the view
     hemisphere; cone [rad] half angle around the outward normal; aim_spread (see module
     doc); ik_q7, ik_solutions; rays (nu, nv) and max_range [m] of the information; roi_margin
     [m]; p_unknown prior occupancy of unknown voxels; min_information (voxels or bits) of a
@@ -41,6 +41,7 @@ class GreedyIGConfig:
 
     formulation: IGFormulation = IGFormulation.UNOBSERVED
     n_views: int = 48
+    rounds: int = 3
     radius: tuple[float, float] = (0.35, 0.75)
     cone: float = 1.0
     aim_spread: float = 0.8
@@ -95,19 +96,30 @@ class GreedyIGMethod(MapMethod):
         T = self.world.kin.T_world_cam_batch(Q) if len(Q) else np.zeros((0, 4, 4))
         return Q, T
 
-    def decide(self) -> Decision:
-        t0 = time.perf_counter()
+    def scored_candidates(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Valid candidates (n, 7), their camera poses (n, 4, 4) and information (n,)
+        (-inf for views too close to the current one)."""
         cfg = self.config
         Q, T = self.candidates()
-        stats = {"candidates": len(Q)}
         if len(Q) == 0:
-            return timed(Decision(None, StopReason.NO_REACHABLE_VIEW, Phase.EXPLORE, stats=stats), t0)
+            return Q, T, np.zeros(0)
         info = view_information(self.world.occ, self.roi, T, self.K, cfg.max_range, cfg.rays, cfg.formulation,
                                 cfg.p_unknown)
         T_now = self.world.kin.T_world_cam_batch(self.world.q[None])[0]
         moved = np.linalg.norm(T[:, :3, 3] - T_now[:3, 3], axis=1)
         turned = np.arccos(np.clip(T[:, :3, 2] @ T_now[:3, 2], -1.0, 1.0))
-        info = np.where((moved < cfg.min_view_change) & (turned < cfg.min_view_change), -np.inf, info)
+        return Q, T, np.where((moved < cfg.min_view_change) & (turned < cfg.min_view_change), -np.inf, info)
+
+    def decide(self) -> Decision:
+        t0 = time.perf_counter()
+        cfg = self.config
+        for _ in range(cfg.rounds):
+            Q, T, info = self.scored_candidates()
+            if len(Q) and info.max() >= cfg.min_information:
+                break
+        stats = {"candidates": len(Q)}
+        if len(Q) == 0:
+            return timed(Decision(None, StopReason.NO_REACHABLE_VIEW, Phase.EXPLORE, stats=stats), t0)
         order = np.argsort(-info, kind="stable")
         attempted = succeeded = 0
         for k in order[: cfg.max_attempts]:

@@ -14,10 +14,12 @@ reached along its tree path, shortcut and re-validated as COMPASS's is; like DSV
 path is executed.
 
 Global stage (DSVP's dual stage): when no tree node gains enough, the frontier clusters of
-the map inside the exploration bounds (the interior grown by `global_margin` [m]) (nearest camera distance first, up to `global_tries`) each give `global_samples` views
-looking into their unknown side (cone `global_cone` [rad], distance `global_distance`
-[m]); the valid IK solutions go to the shared planner and the first cluster it reaches is
-executed (a cluster with valid views but no plan is a failed plan for MPSR). No frontier left: EXPLORED; none reachable: NO_REACHABLE_VIEW.
+the map inside the exploration bounds (the interior grown by `global_margin` [m]), nearest
+to the camera first, up to `global_tries`, each give `global_samples` views looking into
+their unknown side (cone `global_cone` [rad], distance `global_distance` [m]); their valid
+IK solutions go to the shared planner and the first cluster it reaches is executed (a
+cluster with valid views but no plan is a failed plan for MPSR). No frontier left:
+EXPLORED; none reachable: NO_REACHABLE_VIEW.
 """
 from __future__ import annotations
 
@@ -47,8 +49,9 @@ class GSEConfig:
     discount; min_view_change [m] / [rad]; max_attempts best nodes tried when the final path
     fails; verify_resolution [rad]; global_tries frontier clusters tried; global_samples views
     per cluster, in a cone of global_cone [rad] around its unknown side, from
-    global_distance (min, max) [m] of its centroid (valid IK solutions go to the planner); global_margin [m]: frontiers count within the interior grown by it (the
-    exploration bounds); ik_q7 / ik_solutions of the global views; planning: the shared planner."""
+    global_distance (min, max) [m] of its centroid; global_margin [m]: frontiers count
+    within the interior grown by it (the exploration bounds); ik_q7 / ik_solutions of the
+    global views; planning: the shared planner."""
 
     iterations: int = 60
     step: float = 0.15
