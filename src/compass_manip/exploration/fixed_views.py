@@ -46,8 +46,8 @@ class FixedViewsConfig:
     ik_solutions kept per view (planner goals); retry_skipped: one more pass over views
     whose plan failed; planning: the shared planner."""
 
-    heights: tuple[float, ...] = (0.75, 0.4)
-    lateral: tuple[float, ...] = (0.15, 0.5, 0.85)
+    heights: tuple[float, ...] = (0.85, 0.55, 0.25)
+    lateral: tuple[float, ...] = (0.0, 0.25, 0.5, 0.75, 1.0)
     standoff: float = 0.25
     rise: float = 0.08
     depth: float = 0.6

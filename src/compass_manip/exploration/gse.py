@@ -11,7 +11,8 @@ same region COMPASS counts, the confined space grown by `roi_margin` [m]). The s
 NBVP's G exp(-lambda C), C the joint path length [rad] along the tree (lambda = 0: gain
 only). The best node (G >= `min_gain`, camera moved or turned by `min_view_change`) is
 reached along its tree path, shortcut and re-validated as COMPASS's is; like DSVP the whole
-path is executed.
+path is executed. With no node worth going to, a larger tree is grown once
+(`retry_iterations_factor`, the same retry COMPASS gets) before the global stage.
 
 Global stage (DSVP's dual stage): when no tree node gains enough, the frontier clusters of
 the map inside the exploration bounds (the interior grown by `global_margin` [m]), nearest
@@ -24,7 +25,7 @@ EXPLORED; none reachable: NO_REACHABLE_VIEW.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -43,7 +44,9 @@ from .world_model import WorldModelConfig
 
 @dataclass(frozen=True)
 class GSEConfig:
-    """iterations of tree expansion per decision; step [rad] longest edge; res [rad] edge
+    """iterations of tree expansion per decision (a second tree with
+    retry_iterations_factor times as many when the first has no node worth going to, as
+    COMPASS retries); step [rad] longest edge; res [rad] edge
     check step; local_range [rad] (inf: the whole joint range); capacity nodes; rays and
     gain_range [m] of G; roi_margin [m]; min_gain [voxels]; path_lambda [1/rad] NBVP's cost
     discount; min_view_change [m] / [rad]; max_attempts best nodes tried when the final path
@@ -54,9 +57,10 @@ class GSEConfig:
     global views; planning: the shared planner."""
 
     iterations: int = 60
+    retry_iterations_factor: int = 3
     step: float = 0.15
     res: float = 0.005
-    local_range: float = 0.6
+    local_range: float = float("inf")
     capacity: int = 1024
     rays: tuple[int, int] = (20, 15)
     gain_range: float = 1.0
@@ -116,7 +120,14 @@ class GSEMethod(MapMethod):
         return timed(d, t0)
 
     def _local(self) -> Decision | None:
-        cfg = self.config
+        for factor in (1, self.config.retry_iterations_factor):
+            cfg = self.config if factor == 1 else replace(self.config, iterations=self.config.iterations * factor)
+            d = self._local_tree(cfg)
+            if d is not None:
+                return d
+        return None
+
+    def _local_tree(self, cfg: GSEConfig) -> Decision | None:
         tree = self.last_tree = grow_random_tree(self.world, cfg, self.rng)
         Q = tree.q.copy()
         T = self.world.kin.T_world_cam_batch(Q)
