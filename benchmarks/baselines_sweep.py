@@ -38,6 +38,7 @@ def variants() -> dict:
         "ig": ig_factory("ig", ig),
         "ig|rounds1": ig_factory("ig|rounds1", replace(ig, rounds=1)),
         "ig|n96": ig_factory("ig|n96", replace(ig, n_views=96)),
+        "ig|radius-in": ig_factory("ig|radius-in", replace(ig, radius=(0.15, 0.75))),
         "ig|aim-centre": ig_factory("ig|aim-centre", replace(ig, aim_spread=0.0)),
         "gse": gse_factory("gse", gse0),
         "gse|global-range": gse_factory("gse|global-range", replace(gse0, local_range=np.inf)),

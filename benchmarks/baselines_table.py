@@ -1,7 +1,8 @@
 """Summarise JSON-line trial records (baselines_side_by_side.py / baselines_sweep.py) as a
 Markdown table per level and method: n, found, mean TFT [s] (a failed trial counts the
-time limit, as TrialResult does), mean PFT [m] (path until found, or until the trial
-ended), mean MPSR, and the failures by reason.
+time limit, as TrialResult does) and over the found trials only, mean PFT [m] (path until
+found, or until the trial ended) and over the found trials only, mean MPSR, and the
+failures by reason.
 
     python benchmarks/baselines_table.py outputs/side_by_side_seed101.jsonl [--methods fv ig ...]
 """
@@ -27,7 +28,8 @@ def table(recs, methods=None) -> str:
     for r in recs:
         groups[(r["level"], r["method"])].append(r)
     methods = methods or sorted({r["method"] for r in recs})
-    rows = ["| level | method | n | found | TFT s | PFT m | MPSR | failures |", "|---|---|---|---|---|---|---|---|"]
+    rows = ["| level | method | n | found | TFT s | TFT s (found) | PFT m | PFT m (found) | MPSR | failures |",
+            "|---|---|---|---|---|---|---|---|---|---|"]
     for level in sorted({r["level"] for r in recs}):
         for m in methods:
             g = groups.get((level, m), [])
@@ -39,8 +41,11 @@ def table(recs, methods=None) -> str:
             fails = Counter(r["failure"] for r in ok if not r["success"])
             fails.update("error" for r in g if "error" in r)
             f = ", ".join(f"{k} {v}" for k, v in sorted(fails.items())) or "-"
-            rows.append(f"| {level} | {m} | {len(g)} | {found}/{len(g)} | {mean('tft_s'):.1f} | {mean('pft_m'):.2f} | "
-                        f"{mean('mpsr'):.2f} | {f} |")
+            won = [r for r in ok if r["success"]]
+            tf = f"{sum(r['tft_s'] for r in won) / len(won):.1f}" if won else "-"
+            pf = f"{sum(r['pft_m'] for r in won) / len(won):.2f}" if won else "-"
+            rows.append(f"| {level} | {m} | {len(g)} | {found}/{len(g)} | {mean('tft_s'):.1f} | {tf} | {mean('pft_m'):.2f} | "
+                        f"{pf} | {mean('mpsr'):.2f} | {f} |")
     return "\n".join(rows)
 
 
