@@ -7,8 +7,6 @@ COMPASS does; its own view-selection config is the module's frozen default below
 """
 from __future__ import annotations
 
-from dataclasses import replace
-
 import numpy as np
 
 from .fixed_views import FixedViewsConfig, FixedViewsMethod
@@ -43,8 +41,3 @@ def gse_factory(name: str, config: GSEConfig = GSE_CONFIG):
     def factory(task, compass_config, rng: np.random.Generator, q_start, K):
         return GSEMethod(task, compass_config.world, config, rng, q_start, K, name=name)
     return factory
-
-
-def with_changes(config, **changes):
-    """A copy of a frozen config with fields changed (for sweeps)."""
-    return replace(config, **changes)
