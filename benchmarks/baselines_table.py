@@ -37,15 +37,17 @@ def table(recs, methods=None) -> str:
                 continue
             ok = [r for r in g if "error" not in r]
             found = sum(r["success"] for r in ok)
-            mean = lambda k: sum(r[k] for r in ok if r[k] is not None) / max(1, sum(r[k] is not None for r in ok))  # noqa: E731
+            def mean(k, ok=ok):
+                vals = [r[k] for r in ok if r[k] is not None]
+                return sum(vals) / max(1, len(vals))
             fails = Counter(r["failure"] for r in ok if not r["success"])
             fails.update("error" for r in g if "error" in r)
             f = ", ".join(f"{k} {v}" for k, v in sorted(fails.items())) or "-"
             won = [r for r in ok if r["success"]]
             tf = f"{sum(r['tft_s'] for r in won) / len(won):.1f}" if won else "-"
             pf = f"{sum(r['pft_m'] for r in won) / len(won):.2f}" if won else "-"
-            rows.append(f"| {level} | {m} | {len(g)} | {found}/{len(g)} | {mean('tft_s'):.1f} | {tf} | {mean('pft_m'):.2f} | "
-                        f"{pf} | {mean('mpsr'):.2f} | {f} |")
+            rows.append(f"| {level} | {m} | {len(g)} | {found}/{len(g)} | {mean('tft_s'):.1f} | {tf} | "
+                        f"{mean('pft_m'):.2f} | {pf} | {mean('mpsr'):.2f} | {f} |")
     return "\n".join(rows)
 
 

@@ -1,8 +1,9 @@
 """IG: greedy next-best view by volumetric information (Isler et al., ICRA 2016).
 
 Each decision samples `n_views` candidate camera poses on a view hemisphere in front of
-the opening (a new sample, up to `rounds` in all, while no view is worth going to): the camera at a distance in `radius` [m] from the region of interest's centre
-(the confined space's interior), in a direction drawn uniformly within `cone` [rad] of the
+the opening (a new sample, up to `rounds` in all, while no view is worth going to): the
+camera at a distance in `radius` [m] from the region of interest's centre (the confined
+space's interior), in a direction drawn uniformly within `cone` [rad] of the
 space's outward normal, looking at the centre (Isler's view sphere around the object);
 with `aim_spread` > 0 the look-at point is drawn uniformly in the ROI box shrunk to that
 fraction (the ROI here is a container, not one object). Each pose is solved by camera IK
