@@ -15,6 +15,7 @@ import numpy as np
 
 from ..errors import CompassInputError
 from .compass import CompassConfig, CompassMethod
+from .baselines import fv_factory, gse_factory, ig_factory
 
 
 def _compass(name: str, change: Callable[[CompassConfig], CompassConfig] = lambda c: c):
@@ -33,6 +34,10 @@ METHODS: dict[str, Callable] = {
                                     lambda c: replace(c, weights=replace(c.weights, momentum=0.0))),
     "compass-no-manip": _compass("compass-no-manip",
                                  lambda c: replace(c, weights=replace(c.weights, manipulability=0.0))),
+    "fv": fv_factory("fv"),
+    "ig": ig_factory("ig"),
+    "ig-occlusion": ig_factory("ig-occlusion"),
+    "gse": gse_factory("gse"),
 }
 
 
