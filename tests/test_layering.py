@@ -61,6 +61,14 @@ def test_method_side_never_imports_the_simulator_or_the_harness(path):
     assert not bad, "; ".join(bad)
 
 
+@pytest.mark.parametrize("path", list(method_side_files()), ids=lambda p: str(p.relative_to(PKG)))
+def test_method_side_imports_only_the_method_side_and_shared_modules(path):
+    allowed = set(METHOD_SIDE) | set(SHARED)
+    bad = [f"{path.relative_to(PKG)}:{line} imports compass_manip.{pkg}"
+           for line, pkg in imported_packages(path) if pkg not in allowed]
+    assert not bad, "; ".join(bad)
+
+
 def test_the_checker_sees_relative_and_absolute_imports(tmp_path):
     probe = PKG / "exploration" / "_layering_probe.py"
     assert not probe.exists()
