@@ -69,14 +69,17 @@ class SweepConfig:
 
 
 def known_methods() -> list[str] | None:
-    """The exploration registry's method names, or None when the registry is not in this build."""
+    """The exploration registry's method names and the trial's oracle reference, or None when
+    the registry is not in this build."""
     try:
         registry = importlib.import_module("compass_manip.exploration.registry")
     except ModuleNotFoundError as exc:
         if exc.name and exc.name.startswith("compass_manip.exploration"):
             return None
         raise
-    return list(registry.available_methods())
+    from ..trial.oracle_method import ORACLE_METHOD  # noqa: PLC0415 (the trial package is optional here)
+
+    return [*registry.available_methods(), ORACLE_METHOD]
 
 
 def validate(config: SweepConfig, methods: list[str] | None = None) -> None:
