@@ -64,9 +64,9 @@ def main() -> int:
         for index in range(args.start, args.start + args.count):
             scene = certified_scene(level, index, args.seed).scene
             for constrained in variants:
-                cfg = GraspOnlyConfig(select=GraspSelectConfig(constrained=constrained))
+                config = GraspOnlyConfig(select=GraspSelectConfig(constrained=constrained))
                 t0 = time.perf_counter()
-                r = run_grasp_only(scene, cfg, seed=args.seed)
+                r = run_grasp_only(scene, config, seed=args.seed)
                 rec = trial_record(level, index, constrained, r, time.perf_counter() - t0)
                 recs.append(rec)
                 print(json.dumps(rec), file=sys.stderr, flush=True)

@@ -100,22 +100,22 @@ def candidate_poses(n: int, box, rng: np.random.Generator) -> np.ndarray:
 
 def main() -> None:
     frames, box = record_frames()
-    cfg = MapConfig()  # ray_grouping=1
+    config = MapConfig()  # ray_grouping=1
     exact = MapConfig(ray_grouping=0)
     results = []
-    t320 = _time_integrate(frames, cfg, rounds=5)
+    t320 = _time_integrate(frames, config, rounds=5)
     results.append(_stats("map.integrate_320x240_ms", t320))
     results.append(_stats("map.integrate_320x240_exact_ms", _time_integrate(frames, exact, rounds=3)))
     # CPU time of the calling thread plus workers: insensitive to other jobs on the machine
-    results.append(_stats("map.integrate_320x240_cpu_ms", _time_integrate(frames, cfg, 3, time.process_time)))
+    results.append(_stats("map.integrate_320x240_cpu_ms", _time_integrate(frames, config, 3, time.process_time)))
     small = [(d[::2, ::2], np.array([[K[0, 0] / 2, 0, K[0, 2] / 2], [0, K[1, 1] / 2, K[1, 2] / 2], [0, 0, 1]]), T)
              for d, K, T in frames]
-    results.append(_stats("map.integrate_160x120_ms", _time_integrate(small, cfg, rounds=5)))
+    results.append(_stats("map.integrate_160x120_ms", _time_integrate(small, config, rounds=5)))
     n_rays = np.mean([np.count_nonzero(~np.isnan(d) & (d > 0)) for d, _, _ in frames])
     results.append({"name": "map.rays_per_s", "value": round(float(n_rays / np.median(t320))), "unit": "rays/s",
                     "note": "pixel rays integrated per second (ray_grouping=1 traces a subset)"})
 
-    occ = OccupancyMap(cfg)
+    occ = OccupancyMap(config)
     for depth, K, T in frames:
         occ.integrate(depth, K, T, MAX_RANGE)
     K = frames[0][1]
@@ -150,7 +150,7 @@ def main() -> None:
         DistanceField.from_map(occ)
         ts.append(time.perf_counter() - t)
     results.append(_stats("map.distance_field_ms", ts))
-    results.extend(octomap_comparison(frames, cfg, exact, np.median(t320)))
+    results.extend(octomap_comparison(frames, config, exact, np.median(t320)))
     for r in results:
         r.setdefault("threads", numba.get_num_threads())
         r["threading"] = f"{numba.threading_layer()} OMP_WAIT_POLICY={os.environ.get('OMP_WAIT_POLICY')}"
@@ -158,13 +158,13 @@ def main() -> None:
         print(json.dumps(r), flush=True)
 
 
-def octomap_comparison(frames, cfg: MapConfig, exact: MapConfig, ours_median_s: float) -> list[dict]:
+def octomap_comparison(frames, config: MapConfig, exact: MapConfig, ours_median_s: float) -> list[dict]:
     """OctoMap's insertPointCloud on the same frames (same points, origin, resolution,
     maxrange), then a voxel-by-voxel label comparison over the workspace box."""
     import octomap
 
-    tree = octomap.OcTree(cfg.resolution)
-    ours = OccupancyMap(cfg)
+    tree = octomap.OcTree(config.resolution)
+    ours = OccupancyMap(config)
     ours_exact = OccupancyMap(exact)
     ts = []
     for depth, K, T in frames:

@@ -118,8 +118,8 @@ def bench_scenes(sm) -> None:
             n_queries += 1
             res = {}
             for backend in ("numba", "ompl"):
-                cfg = PlannerConfig(time_budget=BUDGET_S, backend=backend)
-                r = plan(qs, qg, checker, cfg, np.random.default_rng([level, index, k]))
+                config = PlannerConfig(time_budget=BUDGET_S, backend=backend)
+                r = plan(qs, qg, checker, config, np.random.default_rng([level, index, k]))
                 rows[backend].append((r.success, 1e3 * r.plan_time_s))
                 res[backend] = r
             r = res["numba"]
@@ -155,8 +155,8 @@ def bench_mbm() -> None:
     if not os.path.isfile(MBM_ARCHIVE):
         raise SystemExit(f"bench_motion: {os.path.normpath(MBM_ARCHIVE)} is missing; it ships with the repository")
     problems = load_problems(MBM_ARCHIVE)
-    cfg = PlannerConfig(time_budget=BUDGET_S)
-    outcomes = solve_problems(problems, cfg, seed=0)
+    config = PlannerConfig(time_budget=BUDGET_S)
+    outcomes = solve_problems(problems, config, seed=0)
     solved = sum(o.solved for o in outcomes)
     rejected = sum(o.rejection is not None and o.rejection.in_collision for o in outcomes)
     outside = sum(o.rejection is not None and not o.rejection.in_collision for o in outcomes)

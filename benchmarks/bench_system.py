@@ -60,8 +60,8 @@ def main() -> None:
         except Exception as exc:  # noqa: BLE001 (the trial package may be absent in this build)
             print(f"bench.trials_per_hour skipped: {exc}", file=sys.stderr)
         else:
-            cfg = SweepConfig(methods=("compass",), levels=(1,), scenes=1, trials=4, workers=2)
-            wall = sweep_wall_s(tmp, "real.sqlite", cfg, real)
+            config = SweepConfig(methods=("compass",), levels=(1,), scenes=1, trials=4, workers=2)
+            wall = sweep_wall_s(tmp, "real.sqlite", config, real)
             emit_value("bench.trials_per_hour", 4 * 3600.0 / wall, "trials/h", digits=1, n=4, workers=2, **ctx)
 
         sleepy = partial(synthetic_trial, config=SyntheticConfig(sleep_s=1.0))

@@ -36,8 +36,10 @@ def test_fv_sequence_is_the_same_for_different_contents(setup):
     # same cabinet, other contents: no clutter, the target moved and recoloured, an extra box
     c = scene.cabinet
     box = Primitive("extra", "box", (0.03, 0.03, 0.05), tuple(np.asarray(c.interior_min) + [0.08, 0.1, 0.05]))
-    other = replace(scene, clutter=(box,), target=replace(scene.target, pos=tuple(
-        np.asarray(scene.target.pos) + [0.02, -0.05, 0.0]), rgba=(0.2, 0.45, 0.8, 1.0)))
+    part = scene.target.parts[0]  # the target moved, recoloured and reduced to one part
+    moved = Primitive("target", part.shape, part.size, tuple(np.asarray(part.pos) + [0.02, -0.05, 0.0]), part.yaw,
+                      (0.2, 0.45, 0.8, 1.0))
+    other = replace(scene, clutter=(box,), target=moved)
     frame2, _, _ = _first_frame(other)
     assert not np.array_equal(frame.depth, frame2.depth)  # the contents are seen differently
     a = FixedViewsMethod(scene.task(), CompassConfig().world, FV_CONFIG, np.random.default_rng(0), q0, K)

@@ -25,7 +25,7 @@ def test_bad_out_is_rejected_before_the_trial(tmp_path, capsys):
     f.write_text("x")
     assert main(["run", "--level", "1", "--scene", "0", "--out", str(f)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "is not a folder" in err[0]
+    assert len(err) == 1 and "is an existing file, not a folder" in err[0]
 
 
 def test_run_prints_json_and_writes_outputs(tmp_path, capsys):

@@ -52,7 +52,7 @@ def test_labels_agree_with_octomap_on_a_level_4_frame(frame_and_reference, group
     occ.integrate(f.depth, f.K, f.T_world_cam, MAX_RANGE)
     mine = occ.state.ravel()
     known = (ref != 0) | (mine != 0)
-    assert known.sum() > 50_000  # a real frame (measured: 64,574 known voxels with grouping 0)
+    assert known.sum() > 20_000  # a real frame (measured: 27,694 known voxels on the v2 Level-4 scene 0)
     agreement = float(np.mean(ref[known] == mine[known]))
     assert agreement >= floor, f"label agreement over {known.sum()} known voxels: {agreement:.6f}"
     assert np.array_equal(ref == 2, mine == 2) or grouping > 0  # occupied voxels identical when exact

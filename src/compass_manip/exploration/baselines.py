@@ -30,10 +30,10 @@ def fv_factory(name: str, config: FixedViewsConfig = FV_CONFIG):
 
 
 def ig_factory(name: str, config: GreedyIGConfig | None = None):
-    cfg = config if config is not None else IG_CONFIGS[name]
+    config = config if config is not None else IG_CONFIGS[name]
 
     def factory(task, compass_config, rng: np.random.Generator, q_start, K):
-        return GreedyIGMethod(task, compass_config.world, cfg, rng, q_start, K, name=name)
+        return GreedyIGMethod(task, compass_config.world, config, rng, q_start, K, name=name)
     return factory
 
 

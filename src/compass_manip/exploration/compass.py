@@ -115,18 +115,18 @@ class CompassMethod:
         return _timed(self._explore(), t0)
 
     def _nfa(self) -> Decision | None:
-        cfg = self.config.nfa
-        if self.nfa_views >= cfg.max_views:
+        config = self.config.nfa
+        if self.nfa_views >= config.max_views:
             return None
         path, gain, att, ok, self._scratch = nfa_step(self.world, self.q_body, np.asarray(self.task.robot_base_pos),
-                                                      cfg, self.K, self.rng, self._scratch)
+                                                      config, self.K, self.rng, self._scratch)
         if path is None:
             return None
         self.nfa_views += 1
         return Decision(path, None, Phase.NFA, att, ok, stats={"gain": gain, "nfa_view": self.nfa_views})
 
     def _explore(self) -> Decision:
-        cfg = self.config
+        config = self.config
         t0 = time.perf_counter()
         self.world.checker  # rebuild the distance field / validity checker on the new map
         t1 = time.perf_counter()
@@ -136,21 +136,21 @@ class CompassMethod:
         attempted = succeeded = 0
         scored = None
         gain_map = None
-        if cfg.tree.gain_in_space:
-            m = cfg.tree.space_margin
+        if config.tree.gain_in_space:
+            m = config.tree.space_margin
             self._gain_map = safe_box_map(self.world.occ, np.asarray(self.task.space.interior_min) - m,
                                           np.asarray(self.task.space.interior_max) + m, self._gain_map)
             gain_map = self._gain_map
         gain_scope = "space" if gain_map is not None else "all"
-        for factor in (1, cfg.retry_iterations_factor):
-            tree_cfg = cfg.tree if factor == 1 else _scaled(cfg.tree, factor)
+        for factor in (1, config.retry_iterations_factor):
+            tree_cfg = config.tree if factor == 1 else _scaled(config.tree, factor)
             tree = grow_tree(self.world, self.ik, frontiers, points, outward, tree_cfg, self.rng,
                              hinted=len(self.hints) > 0)
-            scored = score_tree(self.world, tree, self.K, self.t_prev, points, cfg.weights, tree_cfg, gain_map)
+            scored = score_tree(self.world, tree, self.K, self.t_prev, points, config.weights, tree_cfg, gain_map)
             if np.isfinite(scored.U).any():
                 break
             if gain_map is not None:  # nothing new inside the space from here: open up the near field
-                scored = score_tree(self.world, tree, self.K, self.t_prev, points, cfg.weights, tree_cfg)
+                scored = score_tree(self.world, tree, self.K, self.t_prev, points, config.weights, tree_cfg)
                 if np.isfinite(scored.U).any():
                     gain_scope = "all"
                     break
@@ -161,14 +161,14 @@ class CompassMethod:
             return Decision(None, stop, Phase.EXPLORE, stats=stats)
         checker = self.world.checker
         order = np.argsort(-scored.U, kind="stable")
-        for k in order[: cfg.max_attempts]:
+        for k in order[: config.max_attempts]:
             if not np.isfinite(scored.U[k]):
                 break
             attempted += 1
             raw = scored.tree.path_to(int(k))
-            path = shortcut(raw, lambda a, b: checker.edge_valid(a, b, cfg.verify_resolution))
-            if not checker.path_valid(path, cfg.verify_resolution):
-                path = raw if checker.path_valid(raw, cfg.verify_resolution) else None
+            path = shortcut(raw, lambda a, b: checker.edge_valid(a, b, config.verify_resolution))
+            if not checker.path_valid(path, config.verify_resolution):
+                path = raw if checker.path_valid(raw, config.verify_resolution) else None
             if path is None:
                 continue
             succeeded += 1

@@ -78,18 +78,18 @@ class GreedyIGMethod(MapMethod):
 
     def candidates(self) -> tuple[np.ndarray, np.ndarray]:
         """Valid candidate configurations (n, 7) [rad] and their camera poses (n, 4, 4)."""
-        cfg, rng = self.config, self.rng
+        config, rng = self.config, self.rng
         centre = (self.roi_lo + self.roi_hi) / 2
-        half = (self.roi_hi - self.roi_lo) / 2 * cfg.aim_spread
+        half = (self.roi_hi - self.roi_lo) / 2 * config.aim_spread
         out = np.asarray(self.task.space.outward, float)
         Q = []
-        for _ in range(cfg.n_views):
-            d = sample_direction_in_cone(out, cfg.cone, rng)
-            cam = centre + rng.uniform(*cfg.radius) * d
+        for _ in range(config.n_views):
+            d = sample_direction_in_cone(out, config.cone, rng)
+            cam = centre + rng.uniform(*config.radius) * d
             aim = centre + rng.uniform(-1, 1, 3) * half
             v = aim - cam
             T = view_pose(aim, v / np.linalg.norm(v), float(np.linalg.norm(v)), rng.uniform(-np.pi / 2, np.pi / 2))
-            Q.extend(view_configurations(self.ik, T, self.world.q, cfg.ik_q7, cfg.ik_solutions))
+            Q.extend(view_configurations(self.ik, T, self.world.q, config.ik_q7, config.ik_solutions))
         if not Q:
             return np.zeros((0, 7)), np.zeros((0, 4, 4))
         Q = np.array(Q)
@@ -100,34 +100,34 @@ class GreedyIGMethod(MapMethod):
     def scored_candidates(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Valid candidates (n, 7), their camera poses (n, 4, 4) and information (n,)
         (-inf for views too close to the current one)."""
-        cfg = self.config
+        config = self.config
         Q, T = self.candidates()
         if len(Q) == 0:
             return Q, T, np.zeros(0)
-        info = view_information(self.world.occ, self.roi, T, self.K, cfg.max_range, cfg.rays, cfg.formulation,
-                                cfg.p_unknown)
+        info = view_information(self.world.occ, self.roi, T, self.K, config.max_range, config.rays, config.formulation,
+                                config.p_unknown)
         T_now = self.world.kin.T_world_cam_batch(self.world.q[None])[0]
         moved = np.linalg.norm(T[:, :3, 3] - T_now[:3, 3], axis=1)
         turned = np.arccos(np.clip(T[:, :3, 2] @ T_now[:3, 2], -1.0, 1.0))
-        return Q, T, np.where((moved < cfg.min_view_change) & (turned < cfg.min_view_change), -np.inf, info)
+        return Q, T, np.where((moved < config.min_view_change) & (turned < config.min_view_change), -np.inf, info)
 
     def decide(self) -> Decision:
         t0 = time.perf_counter()
-        cfg = self.config
-        for _ in range(cfg.rounds):
+        config = self.config
+        for _ in range(config.rounds):
             Q, T, info = self.scored_candidates()
-            if len(Q) and info.max() >= cfg.min_information:
+            if len(Q) and info.max() >= config.min_information:
                 break
         stats = {"candidates": len(Q)}
         if len(Q) == 0:
             return timed(Decision(None, StopReason.NO_REACHABLE_VIEW, Phase.EXPLORE, stats=stats), t0)
         order = np.argsort(-info, kind="stable")
         attempted = succeeded = 0
-        for k in order[: cfg.max_attempts]:
-            if not info[k] >= cfg.min_information:
+        for k in order[: config.max_attempts]:
+            if not info[k] >= config.min_information:
                 break
             attempted += 1
-            path = plan_to(self.world, Q[k][None], cfg.planning, self.rng)
+            path = plan_to(self.world, Q[k][None], config.planning, self.rng)
             if path is None:
                 continue
             succeeded += 1

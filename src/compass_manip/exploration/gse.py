@@ -121,37 +121,37 @@ class GSEMethod(MapMethod):
 
     def _local(self) -> Decision | None:
         for factor in (1, self.config.retry_iterations_factor):
-            cfg = self.config if factor == 1 else replace(self.config, iterations=self.config.iterations * factor)
-            d = self._local_tree(cfg)
+            config = self.config if factor == 1 else replace(self.config, iterations=self.config.iterations * factor)
+            d = self._local_tree(config)
             if d is not None:
                 return d
         return None
 
-    def _local_tree(self, cfg: GSEConfig) -> Decision | None:
-        tree = self.last_tree = grow_random_tree(self.world, cfg, self.rng)
+    def _local_tree(self, config: GSEConfig) -> Decision | None:
+        tree = self.last_tree = grow_random_tree(self.world, config, self.rng)
         Q = tree.q.copy()
         T = self.world.kin.T_world_cam_batch(Q)
-        G = info_gain_batch(self.roi_map(cfg.roi_margin), T, self.K, cfg.gain_range, cfg.rays).astype(float)
+        G = info_gain_batch(self.roi_map(config.roi_margin), T, self.K, config.gain_range, config.rays).astype(float)
         C = motion_cost([tree.path_to(k) for k in range(len(Q))])
-        S = node_scores(G, C, cfg.path_lambda)
+        S = node_scores(G, C, config.path_lambda)
         t = T[:, :3, 3]
         moved = np.linalg.norm(t - t[0], axis=1)
         turned = np.arccos(np.clip(T[:, :3, 2] @ T[0, :3, 2], -1.0, 1.0))
-        S[(G < cfg.min_gain) | ((moved < cfg.min_view_change) & (turned < cfg.min_view_change))] = -np.inf
+        S[(G < config.min_gain) | ((moved < config.min_view_change) & (turned < config.min_view_change))] = -np.inf
         S[0] = -np.inf
         if not np.isfinite(S).any():
             return None
         checker = self.world.checker
         attempted = succeeded = 0
         stats = {"stage": "local", "tree_nodes": int(tree.count)}
-        for k in np.argsort(-S, kind="stable")[: cfg.max_attempts]:
+        for k in np.argsort(-S, kind="stable")[: config.max_attempts]:
             if not np.isfinite(S[k]):
                 break
             attempted += 1
             raw = tree.path_to(int(k))
-            path = shortcut(raw, lambda a, b: checker.edge_valid(a, b, cfg.verify_resolution))
-            if not checker.path_valid(path, cfg.verify_resolution):
-                path = raw if checker.path_valid(raw, cfg.verify_resolution) else None
+            path = shortcut(raw, lambda a, b: checker.edge_valid(a, b, config.verify_resolution))
+            if not checker.path_valid(path, config.verify_resolution):
+                path = raw if checker.path_valid(raw, config.verify_resolution) else None
             if path is None:
                 continue
             succeeded += 1
@@ -160,8 +160,8 @@ class GSEMethod(MapMethod):
         return Decision(None, StopReason.PLANNING_FAILED, Phase.EXPLORE, attempted, succeeded, stats=stats)
 
     def _global(self) -> Decision:
-        cfg = self.config
-        lo, hi = interior_box(self.task, cfg.global_margin)
+        config = self.config
+        lo, hi = interior_box(self.task, config.global_margin)
         frontiers = [c for c in self.world.frontiers if np.all((c.centroid_world >= lo) & (c.centroid_world <= hi))]
         stats = {"stage": "global", "frontiers": len(frontiers)}
         if not frontiers:
@@ -169,14 +169,14 @@ class GSEMethod(MapMethod):
         cam = self.world.kin.T_world_cam_batch(self.world.q[None])[0, :3, 3]
         dist = [float(np.linalg.norm(c.centroid_world - cam)) for c in frontiers]
         attempted = succeeded = 0
-        for i in np.argsort(dist, kind="stable")[: cfg.global_tries]:
+        for i in np.argsort(dist, kind="stable")[: config.global_tries]:
             c = frontiers[int(i)]
             S = []
-            for _ in range(cfg.global_samples):
-                d = sample_direction_in_cone(c.direction, cfg.global_cone, self.rng)
-                T = view_pose(c.centroid_world, d, self.rng.uniform(*cfg.global_distance),
+            for _ in range(config.global_samples):
+                d = sample_direction_in_cone(c.direction, config.global_cone, self.rng)
+                T = view_pose(c.centroid_world, d, self.rng.uniform(*config.global_distance),
                               self.rng.uniform(-np.pi / 2, np.pi / 2))
-                S.extend(view_configurations(self.ik, T, self.world.q, cfg.ik_q7, cfg.ik_solutions))
+                S.extend(view_configurations(self.ik, T, self.world.q, config.ik_q7, config.ik_solutions))
             if not S:
                 continue
             S = np.array(S)
@@ -185,7 +185,7 @@ class GSEMethod(MapMethod):
                 continue
             attempted += 1
             S = S[np.argsort(np.linalg.norm(S - self.world.q, axis=1), kind="stable")]
-            path = plan_to(self.world, S, cfg.planning, self.rng)
+            path = plan_to(self.world, S, config.planning, self.rng)
             if path is None:
                 continue
             succeeded += 1

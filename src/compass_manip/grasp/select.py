@@ -233,8 +233,8 @@ class _Checks:
 
     def held_target_clear(self) -> bool:
         """The target's points stay in safe space all along the lift (1 cm steps)."""
-        cfg = self.config
-        steps = np.arange(0.0, cfg.lift_height + 1e-9, 0.01)[1:]
+        config = self.config
+        steps = np.arange(0.0, config.lift_height + 1e-9, 0.01)[1:]
         if len(steps) == 0:
             return True
         pts = (self.target.points[None] + steps[:, None, None] * np.array([0.0, 0.0, 1.0])).reshape(-1, 3)
@@ -248,22 +248,22 @@ class _Checks:
 
     def check(self, T: np.ndarray, q_current: np.ndarray, lift_clear: bool):
         """(q_grasp, q_pregrasp, q_lift) for one candidate pose, or (None, rejection)."""
-        cfg, chk = self.config, self.checker
-        r = self.ik.solve(T, "tcp", q_current, cfg.n_q7, None)
+        config, chk = self.config, self.checker
+        r = self.ik.solve(T, "tcp", q_current, config.n_q7, None)
         if not r.success:
             return None, Rejection.NO_IK
         free = chk.are_valid(r.solutions)
         if not free.any():
             return None, Rejection.IK_IN_COLLISION
         reason = Rejection.PREGRASP_BLOCKED
-        for q_g in r.solutions[free][: cfg.max_ik_solutions]:
-            q_pre = self.near(offset_pose(T, -cfg.pregrasp_distance), q_g, chk)
+        for q_g in r.solutions[free][: config.max_ik_solutions]:
+            q_pre = self.near(offset_pose(T, -config.pregrasp_distance), q_g, chk)
             if q_pre is None:
                 continue
             if not chk.edge_valid(q_pre, q_g):
                 reason = Rejection.APPROACH_BLOCKED
                 continue
-            q_lift = self.near(offset_pose(T, up=cfg.lift_height), q_g, chk)
+            q_lift = self.near(offset_pose(T, up=config.lift_height), q_g, chk)
             if q_lift is None or not lift_clear or not chk.edge_valid(q_g, q_lift):
                 reason = Rejection.LIFT_BLOCKED
                 continue

@@ -193,15 +193,15 @@ class AppearanceDetector:
     def __call__(self, obs: Observation, query: TargetQuery) -> tuple[Detection, ...]:
         if obs.rgb is None:
             raise CompassInputError("AppearanceDetector needs an RGB image; the observation has none")
-        cfg = self.config
+        config = self.config
         depth = np.asarray(obs.depth, dtype=np.float32)
-        mask = colour_mask(obs.rgb, query.colour, cfg)
-        mask &= np.isfinite(depth) & (depth > 0) & (depth <= cfg.max_depth)
-        if mask.sum() < cfg.min_pixels:
+        mask = colour_mask(obs.rgb, query.colour, config)
+        mask &= np.isfinite(depth) & (depth > 0) & (depth <= config.max_depth)
+        if mask.sum() < config.min_pixels:
             return ()
         labels, n = ndimage.label(mask, structure=np.ones((3, 3), bool))
         sizes = np.bincount(labels.ravel(), minlength=n + 1)
-        keep = [k for k in range(1, n + 1) if sizes[k] >= cfg.min_pixels]
+        keep = [k for k in range(1, n + 1) if sizes[k] >= config.min_pixels]
         if not keep:
             return ()
         pts, _ = backproject_image(depth, obs.K, obs.T_world_cam)
@@ -211,7 +211,7 @@ class AppearanceDetector:
         return tuple(out)
 
     def _region(self, obs, labels, k, sl, pts, nrm, nok, query) -> Detection:
-        cfg = self.config
+        config = self.config
         H, W = labels.shape
         sub = labels[sl] == k
         rows, cols = np.nonzero(sub)
@@ -220,26 +220,26 @@ class AppearanceDetector:
         inner = ndimage.binary_erosion(sub, iterations=2)
         ir, ic = np.nonzero(inner & nok[sl])
         ir, ic = ir + sl[0].start, ic + sl[1].start
-        shape = classify_shape(nrm[ir, ic], pts[ir, ic], obs.T_world_cam[:3, 3], cfg)
+        shape = classify_shape(nrm[ir, ic], pts[ir, ic], obs.T_world_cam[:3, 3], config)
         ext = upright_extents(P)
         a, b, c = (float(v) for v in query.size)
-        tol = 1.0 + cfg.size_tolerance
-        too_big = ext[2] > c * tol + cfg.size_slack or ext[0] > math.hypot(a, b) * tol + cfg.size_slack
+        tol = 1.0 + config.size_tolerance
+        too_big = ext[2] > c * tol + config.size_slack or ext[0] > math.hypot(a, b) * tol + config.size_slack
         completeness = min(1.0, ext[2] / c, ext[0] / b)
         u0, u1, v0, v1 = int(cols.min()), int(cols.max()), int(rows.min()), int(rows.max())
-        at_border = (u0 < cfg.border_px or v0 < cfg.border_px or u1 >= W - cfg.border_px
-                     or v1 >= H - cfg.border_px)
+        at_border = (u0 < config.border_px or v0 < config.border_px or u1 >= W - config.border_px
+                     or v1 >= H - config.border_px)
         family = SHAPE_FAMILY[query.shape]
         if too_big:
             verdict = Verdict.WRONG_SIZE
         elif shape not in ("unknown", family):
             verdict = Verdict.WRONG_SHAPE
-        elif shape == family and completeness >= (cfg.border_completeness if at_border else cfg.min_completeness):
+        elif shape == family and completeness >= (config.border_completeness if at_border else config.min_completeness):
             verdict = Verdict.ACCEPTED
         else:
             verdict = Verdict.PARTIAL
-        if len(P) > cfg.max_points:
-            P = P[np.linspace(0, len(P) - 1, cfg.max_points).astype(int)]
+        if len(P) > config.max_points:
+            P = P[np.linspace(0, len(P) - 1, config.max_points).astype(int)]
         return Detection(
             t=float(obs.t), T_world_cam=np.asarray(obs.T_world_cam), bbox=(u0, v0, u1, v1),
             centre_px=((u0 + u1) / 2, (v0 + v1) / 2), n_pixels=int(len(rows)), points_world=P,

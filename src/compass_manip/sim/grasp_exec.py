@@ -90,7 +90,7 @@ class _Monitor:
         m = world.model
         self.world, self.sim, self.depth = world, sim, depth
         self.robot = world.is_robot_geom
-        self.skip = {world.target_geom}
+        self.skip = {int(g) for g in world.target_geoms}
         self.floor, self.base = m.geom("floor").id, m.geom("link0").id
         self.seen: dict[tuple[int, int], Collision] = {}
 

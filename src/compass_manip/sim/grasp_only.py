@@ -85,7 +85,7 @@ def oracle_view(world: World, rng: np.random.Generator, config: GraspOnlyConfig)
     lo = np.array(scene.cabinet.interior_min)
     hi = np.array(scene.cabinet.interior_max)
     tgt = np.array(scene.target.pos)
-    top = tgt[2] + scene.target.half_extents[2]
+    top = float(scene.target.aabb()[1][2])
     q_home = np.asarray(world.robot.q_home)
     best, best_vis = None, 0.0
     for _ in range(config.n_view_samples):

@@ -13,7 +13,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from ..errors import CompassInputError
-from ..task import COLOURS, SHAPE_CLASSES, ConfinedSpace, TargetQuery, Task
+from ..task import COLOURS, SHAPE_CLASSES, ConfinedSpace, TargetQuery, Task, colour_name
 
 SHAPES = ("box", "cylinder", "sphere")
 #: Thickness of the cabinet boards [m].
@@ -127,6 +127,12 @@ class SceneObject:
         """World axis-aligned bounding box (min, max) [m] of all parts."""
         boxes = [p.aabb() for p in self.parts]
         return np.min([b[0] for b in boxes], axis=0), np.max([b[1] for b in boxes], axis=0)
+
+    @classmethod
+    def single(cls, part: Primitive, role: str = "clutter") -> "SceneObject":
+        """A one-part object from a primitive: its shape is its class, its colour the name
+        nearest its rgba, its mass the primitive's (for hand-built test and demo scenes)."""
+        return cls(part.name, part.shape, colour_name(part.rgba), (part,), part.mass, role)
 
     @property
     def pos(self) -> np.ndarray:
@@ -256,6 +262,14 @@ class SceneSpec:
     floor_z: float = 0.0
     extra: dict = field(default_factory=dict)
 
+    def __post_init__(self) -> None:
+        # a bare Primitive given as the target or clutter becomes a one-part object
+        if isinstance(self.target, Primitive):
+            object.__setattr__(self, "target", SceneObject.single(self.target, "target"))
+        if any(isinstance(o, Primitive) for o in self.clutter):
+            object.__setattr__(self, "clutter", tuple(SceneObject.single(o) if isinstance(o, Primitive) else o
+                                                      for o in self.clutter))
+
     def task(self, time_limit_s: float = 200.0) -> Task:
         """What a method may know of this scene: base, floor, the cabinet's outer interior box
         and its opening (narrowed by the face frame), and a description of the target; never
@@ -310,7 +324,9 @@ class SceneSpec:
         return cls.from_dict(d)
 
 
-def target_query(obj: SceneObject) -> TargetQuery:
-    """The description a method gets of a target object: shape class, colour name and
-    full extents [m] with the two horizontal ones sorted (x >= y)."""
+def target_query(obj: SceneObject | Primitive) -> TargetQuery:
+    """The description a method gets of a target object (or a one-part object given as a
+    primitive): shape class, colour name and full extents [m], horizontal ones sorted."""
+    if isinstance(obj, Primitive):
+        obj = SceneObject.single(obj, "target")
     return TargetQuery(shape=obj.category, colour=obj.colour, size=obj.size)

@@ -76,10 +76,10 @@ class TrialMachine:
             self.states.append(state)
 
     def run(self) -> MachineOutcome:
-        cfg = self.config
-        limit = cfg.time_limit_s
+        config = self.config
+        limit = config.time_limit_s
         render_seg = self.pass_frames
-        ex_cfg = ExecutorConfig(frame_rate=cfg.sensing.frame_rate, check_step=cfg.sensing.check_step,
+        ex_cfg = ExecutorConfig(frame_rate=config.sensing.frame_rate, check_step=config.sensing.check_step,
                                 render_rgb=True, render_seg=render_seg)
         q0 = self.world.q
         self._feed(self.world.render(q0, t=0.0, rgb=True, seg=render_seg))
@@ -98,11 +98,11 @@ class TrialMachine:
             d = self.method.decide()
             self._enter(TrialState.NFA if d.phase is Phase.NFA else TrialState.EXPLORE)
             self.metrics.decision(d)
-            self.t += d.compute_s if cfg.clock.measured else cfg.clock.planning_charge_s
+            self.t += d.compute_s if config.clock.measured else config.clock.planning_charge_s
             if d.stop is not None:
                 failure = _STOP_TO_FAILURE[d.stop]
                 break
-            traj = time_parameterize(d.path, cfg.timing)
+            traj = time_parameterize(d.path, config.timing)
             t_start = self.t
             res = execute(self.world, traj, ex_cfg, t0=t_start)
             for f in res.frames:

@@ -71,9 +71,9 @@ class OracleMethod(MapMethod):
 
     def decide(self) -> Decision:
         t0 = time.perf_counter()
-        cfg, rng = self.config, self.rng
+        config, rng = self.config, self.rng
         Q, cams = np.zeros((0, 7)), np.zeros((0, 3))
-        for _ in range(cfg.rounds):
+        for _ in range(config.rounds):
             Q, cams = self._candidates()
             if len(Q):
                 break
@@ -81,9 +81,9 @@ class OracleMethod(MapMethod):
         stats = {"candidates": len(Q)}
         if len(Q) == 0:
             return timed(Decision(None, StopReason.NO_REACHABLE_VIEW, Phase.EXPLORE, stats=stats), t0)
-        for k in np.argsort(np.linalg.norm(Q - self.world.q, axis=1), kind="stable")[: cfg.max_attempts]:
+        for k in np.argsort(np.linalg.norm(Q - self.world.q, axis=1), kind="stable")[: config.max_attempts]:
             attempted += 1
-            path = plan_to(self.world, Q[k][None], cfg.planning, rng)
+            path = plan_to(self.world, Q[k][None], config.planning, rng)
             if path is None:
                 continue
             succeeded += 1
@@ -94,18 +94,18 @@ class OracleMethod(MapMethod):
     def _candidates(self) -> tuple[np.ndarray, np.ndarray]:
         """Valid view configurations (n, 7) [rad] with a clear line of sight, and their
         camera positions (n, 3) [m]."""
-        cfg, rng = self.config, self.rng
+        config, rng = self.config, self.rng
         out = np.asarray(self.task.space.outward, float)
         Q, cams = [], []
-        for _ in range(cfg.n_views):
-            d = -sample_direction_in_cone(out, cfg.cone, rng)  # viewing direction, into the space
-            T = view_pose(self.target, d, rng.uniform(*cfg.distance), rng.uniform(-np.pi / 2, np.pi / 2))
+        for _ in range(config.n_views):
+            d = -sample_direction_in_cone(out, config.cone, rng)  # viewing direction, into the space
+            T = view_pose(self.target, d, rng.uniform(*config.distance), rng.uniform(-np.pi / 2, np.pi / 2))
             cam = T[:3, 3]
-            if any(np.linalg.norm(cam - v) < cfg.revisit_radius for v in self.visited):
+            if any(np.linalg.norm(cam - v) < config.revisit_radius for v in self.visited):
                 continue
-            if not line_of_sight_clear(self.world.occ, cam, self.target, cfg.target_clearance):
+            if not line_of_sight_clear(self.world.occ, cam, self.target, config.target_clearance):
                 continue
-            for q in view_configurations(self.ik, T, self.world.q, cfg.ik_q7, cfg.ik_solutions):
+            for q in view_configurations(self.ik, T, self.world.q, config.ik_q7, config.ik_solutions):
                 Q.append(q)
                 cams.append(cam)
         if not Q:
