@@ -69,17 +69,15 @@ class SweepConfig:
 
 
 def known_methods() -> list[str] | None:
-    """The exploration registry's method names and the trial's oracle reference, or None when
-    the registry is not in this build."""
+    """Every method a trial can run (`trial.runner.trial_methods`: the registered methods and
+    the oracle reference), or None when the trial package is not in this build."""
     try:
-        registry = importlib.import_module("compass_manip.exploration.registry")
+        runner = importlib.import_module("compass_manip.trial.runner")
     except ModuleNotFoundError as exc:
-        if exc.name and exc.name.startswith("compass_manip.exploration"):
+        if exc.name and exc.name.startswith(("compass_manip.trial", "compass_manip.exploration")):
             return None
         raise
-    from ..trial.oracle_method import ORACLE_METHOD  # noqa: PLC0415 (the trial package is optional here)
-
-    return [*registry.available_methods(), ORACLE_METHOD]
+    return list(runner.trial_methods())
 
 
 def validate(config: SweepConfig, methods: list[str] | None = None) -> None:

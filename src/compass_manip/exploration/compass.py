@@ -17,7 +17,7 @@ from ..robot.model import RobotConfig
 from ..task import Task
 from ..types import Observation
 from .base import Decision, Phase, StopReason
-from .mue_rrt import TreeConfig, UtilityWeights, grow_tree, score_tree, shortcut
+from .mue_rrt import TreeConfig, UtilityWeights, grow_tree, score_tree, validated_path
 from .nfa import NFAConfig, nfa_step, safe_box_map
 from .world_model import WorldModel, WorldModelConfig
 
@@ -165,10 +165,7 @@ class CompassMethod:
             if not np.isfinite(scored.U[k]):
                 break
             attempted += 1
-            raw = scored.tree.path_to(int(k))
-            path = shortcut(raw, lambda a, b: checker.edge_valid(a, b, config.verify_resolution))
-            if not checker.path_valid(path, config.verify_resolution):
-                path = raw if checker.path_valid(raw, config.verify_resolution) else None
+            path = validated_path(scored.tree.path_to(int(k)), checker, config.verify_resolution)
             if path is None:
                 continue
             succeeded += 1

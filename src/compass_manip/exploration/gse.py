@@ -36,7 +36,7 @@ from ..robot.model import Q_MAX, Q_MIN
 from ..task import Task
 from .base import Decision, Phase, StopReason
 from .baseline_common import MapMethod, ViewPlanningConfig, interior_box, plan_to, timed
-from .mue_rrt import shortcut
+from .mue_rrt import validated_path
 from .utility import motion_cost
 from .viewpoints import sample_direction_in_cone, view_configurations, view_pose
 from .world_model import WorldModelConfig
@@ -148,10 +148,7 @@ class GSEMethod(MapMethod):
             if not np.isfinite(S[k]):
                 break
             attempted += 1
-            raw = tree.path_to(int(k))
-            path = shortcut(raw, lambda a, b: checker.edge_valid(a, b, config.verify_resolution))
-            if not checker.path_valid(path, config.verify_resolution):
-                path = raw if checker.path_valid(raw, config.verify_resolution) else None
+            path = validated_path(tree.path_to(int(k)), checker, config.verify_resolution)
             if path is None:
                 continue
             succeeded += 1

@@ -174,3 +174,12 @@ def shortcut(path: np.ndarray, edge_valid) -> np.ndarray:
         out.append(path[j])
         i = j
     return np.array(out)
+
+
+def validated_path(raw: np.ndarray, checker, resolution: float) -> np.ndarray | None:
+    """The tree path `raw` (m, 7) [rad] shortcut and re-checked at `resolution` [rad]; the raw
+    path if only it passes the check; None if neither does."""
+    path = shortcut(raw, lambda a, b: checker.edge_valid(a, b, resolution))
+    if checker.path_valid(path, resolution):
+        return path
+    return raw if checker.path_valid(raw, resolution) else None

@@ -24,7 +24,7 @@ from ..sim.world import World
 from .config import ORACLE_DETECTOR, TrialConfig
 from .machine import MachineOutcome, TrialMachine
 from .metrics import MetricsRecorder
-from .oracle_method import ORACLE_METHOD, make_oracle_method  # issue 10: oracle reference
+from .oracle_method import ORACLE_METHOD, make_oracle_method
 from .result import TrialFailure, TrialResult
 
 
@@ -37,10 +37,16 @@ class TrialSpec:
     seed: int = 0
 
 
+def trial_methods() -> tuple[str, ...]:
+    """Every method a trial can run: the registered exploration methods and the oracle
+    reference (built here, never by the registry, so no method package can reach it)."""
+    return (*available_methods(), ORACLE_METHOD)
+
+
 def check_spec(spec: TrialSpec) -> TrialSpec:
     """Raise CompassInputError (one line naming what is allowed) on a bad spec."""
-    if spec.method not in available_methods() and spec.method != ORACLE_METHOD:  # issue 10: oracle reference
-        names = ", ".join(available_methods())
+    if spec.method not in trial_methods():
+        names = ", ".join(trial_methods())
         raise CompassInputError(f"method {spec.method!r} is not registered; use one of {names}")
     check_level(spec.level)
     for name in ("scene", "trial", "seed"):
