@@ -13,6 +13,7 @@ from compass_manip.cli import main
     (["--level", "1", "--scene", "-2"], "scene -2 is not allowed"),
     (["--level", "1", "--scene", "0", "--seed", "-1"], "seed -1 is not allowed"),
     (["--level", "1", "--scene", "0", "--trial", "-3"], "trial -3 is not allowed"),
+    (["--level", "1", "--scene", "0", "--seed", str(2**63)], f"seed {2**63} is not allowed"),  # as `scenes`
 ])
 def test_bad_input_is_one_line_and_exit_2(argv, message, capsys):
     assert main(["run", *argv]) == 2

@@ -51,8 +51,8 @@ def check_spec(spec: TrialSpec) -> TrialSpec:
     check_level(spec.level)
     for name in ("scene", "trial", "seed"):
         v = getattr(spec, name)
-        if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 0:
-            raise CompassInputError(f"{name} {v!r} is not allowed; use an integer >= 0")
+        if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not 0 <= v < 2**63:
+            raise CompassInputError(f"{name} {v!r} is not allowed; use an integer 0 <= {name} < 2**63")
     return spec
 
 
