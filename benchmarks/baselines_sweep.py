@@ -11,12 +11,12 @@ from __future__ import annotations
 
 import argparse
 import json
-import time
-import traceback
 from dataclasses import replace
 from multiprocessing import Pool
 
 import numpy as np
+
+from baselines_side_by_side import _run as _run_trial  # same record, same error handling
 
 
 def variants() -> dict:
@@ -47,20 +47,13 @@ def variants() -> dict:
 
 
 def _run(job):
-    name, level, scene, seed = job
+    """One trial of a swept variant: registered under its name in this worker, then run
+    like every side-by-side trial."""
     from compass_manip.exploration import registry
-    from compass_manip.trial.runner import TrialSpec, run_trial
 
+    name = job[0]
     registry.METHODS.setdefault(name, variants()[name])
-    t0 = time.perf_counter()
-    try:
-        rec = run_trial(TrialSpec(name, level, scene, 0, seed)).to_dict()
-        rec.pop("explored_curve", None)
-    except Exception as exc:  # recorded, counted as an error in the summary
-        rec = {"method": name, "level": level, "scene": scene, "seed": seed, "error": repr(exc),
-               "traceback": traceback.format_exc()}
-    rec["wall_s"] = time.perf_counter() - t0
-    return rec
+    return _run_trial(job)
 
 
 def main() -> None:

@@ -20,7 +20,7 @@ from compass_manip.bench.mbm import (
 )
 from compass_manip.motion.planner import PlannerConfig
 
-from conftest import MBM_ARCHIVE
+from conftest import MBM_ARCHIVE, mbm_mujoco_scene
 
 ARCHIVE = str(MBM_ARCHIVE)  # shipped in data/ (data/README.md); a missing file fails every test here
 FAMILIES = ("bookshelf_small", "box", "cage", "table_pick")
@@ -191,7 +191,7 @@ def test_path_is_valid_detects_a_collision(subset):
     p = load_problems(subset)[0]
     assert (p.family, p.name) == ("bookshelf_small", "0001")
     v = problem_validity(p, panda_sphere_model(finger_width=p.finger_width))
-    m, d, obstacles = _mujoco_scene(p)
+    m, d, obstacles = mbm_mujoco_scene(p)
     line = np.stack([p.q_start, p.q_goals[0]])
     true = np.array([_true_clearance(m, d, obstacles, q, p.finger_width) for q in densify(line, 0.01)])
     assert true[0] > 0 and true[-1] > 0 and true.min() < -0.02  # the oracle: ends free, the line blocked
@@ -249,29 +249,6 @@ def test_explain_names_the_link_and_the_obstacle(subset):
     assert o.rejection is Rejection.START_IN_COLLISION
 
 
-def _mujoco_scene(p: MbmProblem):
-    """Robot + the problem's obstacles as MuJoCo geoms: (model, data, obstacle geom ids)."""
-    import mujoco
-
-    from compass_manip.geometry import R_to_quat
-    from compass_manip.robot.model import build_robot_spec
-
-    spec = build_robot_spec(actuators=False)
-    G = mujoco.mjtGeom
-    for i, (T, h) in enumerate(p.boxes):
-        spec.worldbody.add_geom(name=f"obs_b{i}", type=G.mjGEOM_BOX, size=list(h), pos=list(T[:3, 3]),
-                                quat=list(R_to_quat(T[:3, :3])))
-    for i, (T, r, h) in enumerate(p.cylinders):
-        spec.worldbody.add_geom(name=f"obs_c{i}", type=G.mjGEOM_CYLINDER, size=[r, h, 0], pos=list(T[:3, 3]),
-                                quat=list(R_to_quat(T[:3, :3])))
-    for i, (c, r) in enumerate(p.spheres):
-        spec.worldbody.add_geom(name=f"obs_s{i}", type=G.mjGEOM_SPHERE, size=[r, 0, 0], pos=list(c))
-    m = spec.compile()
-    obstacles = {g for g in range(m.ngeom) if m.geom(g).name.startswith("obs_")}
-    assert len(obstacles) == len(p.boxes) + len(p.cylinders) + len(p.spheres)
-    return m, mujoco.MjData(m), obstacles
-
-
 def _true_clearance(m, d, obstacles, q, width):
     """Smallest MuJoCo signed distance [m] between moving robot geoms and the obstacles."""
     import mujoco
@@ -301,7 +278,7 @@ def test_fine_model_accepts_refined_goals_and_stays_conservative(refined):
         v_coarse, v_fine = problem_validity(p, coarse), problem_validity(p, fine)
         assert not v_coarse.is_valid(p.q_goals[0]) and v_fine.is_valid(p.q_goals[0])
         assert v_fine.clearance(p.q_goals[0]) > v_coarse.clearance(p.q_goals[0]) + 0.002
-        m, d, obstacles = _mujoco_scene(p)
+        m, d, obstacles = mbm_mujoco_scene(p)
         assert _true_clearance(m, d, obstacles, p.q_goals[0], p.finger_width) > 0.003
         Q = np.clip(p.q_goals[0] + rng.normal(0.0, 0.03, (150, 7)), *_limits())
         free = v_fine.are_valid(Q)

@@ -9,9 +9,7 @@ from __future__ import annotations
 
 import json
 import os
-import sys
 
-from ..errors import CompassInputError
 
 HELP = "run one COMPASS trial on a certified scene and write its outputs"
 
@@ -28,28 +26,17 @@ def add_arguments(p) -> None:
 
 
 def run(args) -> int:
-    from ..trial.runner import TrialSpec, check_spec
-    from .run import check_out, save_trial
+    from .run import run_checked_trial, save_trial
 
-    spec = check_spec(TrialSpec(args.method, args.level, args.index, args.trial, args.seed))
-    if not 0 < args.time_limit <= 3600:
-        raise CompassInputError(f"--time-limit {args.time_limit} s is not allowed; use 0 < limit <= 3600 s")
-    out = check_out(args.out)
-    from ..trial.config import TrialConfig
-    from ..trial.runner import run_trial_full
-
-    config = TrialConfig(time_limit_s=args.time_limit)
-    print(f"compass demo: {spec.method}, level {spec.level} scene {spec.scene} (seed {spec.seed}), "
-          f"trial {spec.trial}", file=sys.stderr)
-    result_run = run_trial_full(spec, config, lambda line: print(f"\r  {line}", end="", file=sys.stderr, flush=True))
-    print("", file=sys.stderr)
+    result_run, config, out = run_checked_trial(
+        "demo", (args.method, args.level, args.index, args.trial, args.seed), args.time_limit, args.out)
     paths = save_trial(result_run, config, out)
     r = result_run.result.to_dict()
     if args.json:
         print(json.dumps({**r, "outputs": paths}))
         return 0
     verdict = f"found the target at {r['tft_s']:.1f} s" if r["success"] else f"failed: {r['failure']}"
-    print(f"{spec.method} {verdict} after {r['decisions']} decisions, {r['collisions']} collisions, "
+    print(f"{result_run.result.method} {verdict} after {r['decisions']} decisions, {r['collisions']} collisions, "
           f"{r['wall_s']:.1f} s wall time")
     print(f"outputs in {os.path.abspath(out)}:")
     for name, path in paths.items():

@@ -27,22 +27,29 @@ def check_out(out: str | None) -> str | None:
     return None if out is None else check_output_dir(out)
 
 
-def run(args) -> int:
+def run_checked_trial(command: str, spec_args: tuple, time_limit: float, out: str | None):
+    """Check a trial's spec, time limit [s] and output folder (before any work), run it with
+    a progress line on stderr; returns (TrialRun, TrialConfig, output folder or None)."""
     from ..trial.runner import TrialSpec, check_spec
 
-    spec = check_spec(TrialSpec(args.method, args.level, args.scene, args.trial, args.seed))
-    if not 0 < args.time_limit <= 3600:
-        raise CompassInputError(f"--time-limit {args.time_limit} s is not allowed; use 0 < limit <= 3600 s")
-    out = check_out(args.out)
+    spec = check_spec(TrialSpec(*spec_args))
+    if not 0 < time_limit <= 3600:
+        raise CompassInputError(f"--time-limit {time_limit} s is not allowed; use 0 < limit <= 3600 s")
+    out = check_out(out)
     from ..trial.config import TrialConfig
     from ..trial.runner import run_trial_full
 
-    config = TrialConfig(time_limit_s=args.time_limit)
-    print(f"compass run: {spec.method} on level {spec.level} scene {spec.scene} trial {spec.trial} seed {spec.seed}",
-          file=sys.stderr)
-    progress = (lambda line: print(f"\r  {line}", end="", file=sys.stderr, flush=True))
-    result_run = run_trial_full(spec, config, progress)
+    config = TrialConfig(time_limit_s=time_limit)
+    print(f"compass {command}: {spec.method} on level {spec.level} scene {spec.scene} trial {spec.trial} "
+          f"seed {spec.seed}", file=sys.stderr)
+    result_run = run_trial_full(spec, config, lambda line: print(f"\r  {line}", end="", file=sys.stderr, flush=True))
     print("", file=sys.stderr)
+    return result_run, config, out
+
+
+def run(args) -> int:
+    result_run, config, out = run_checked_trial(
+        "run", (args.method, args.level, args.scene, args.trial, args.seed), args.time_limit, args.out)
     record = result_run.result.to_dict()
     if out is not None:
         save_trial(result_run, config, out)

@@ -1,9 +1,9 @@
 """PNG outputs of a trial: the executed camera path over the scene, the explored curve."""
 from __future__ import annotations
 
-import os
-
 import numpy as np
+
+from ..viz.images import save_figure
 
 
 def _plt():
@@ -42,12 +42,7 @@ def save_camera_path_png(scene, overview_rgb: np.ndarray, camera_path: np.ndarra
         ax.autoscale_view()
     axes[1].set_title("camera path, top view")
     axes[2].set_title("camera path, side view")
-    if title:
-        fig.suptitle(title)
-    fig.tight_layout()
-    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
+    save_figure(fig, path, title)
 
 
 def save_explored_png(curve, path: str, t_found: float | None, limit: float, title: str = "") -> None:
@@ -62,7 +57,4 @@ def save_explored_png(curve, path: str, t_found: float | None, limit: float, tit
     ax.set(xlabel="simulated time [s]", ylabel="known fraction", ylim=(0, 1.02),
            xlim=(0, max(limit if t_found is None else t_found * 1.05, 1.0)),
            title=title or "explored fraction of the target's surroundings")
-    fig.tight_layout()
-    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
+    save_figure(fig, path)

@@ -2,11 +2,11 @@
 from __future__ import annotations
 
 import math
-import os
 
 import numpy as np
 
 from ..errors import CompassInputError
+from .images import save_figure
 
 
 def contact_sheet(images: list[np.ndarray], titles: list[str] | None = None, columns: int = 5) -> np.ndarray:
@@ -47,9 +47,4 @@ def save_contact_sheet(images: list[np.ndarray], path: str, titles: list[str] | 
                 ax.set_title(titles[k], fontsize=8)
         else:
             ax.axis("off")
-    if title:
-        fig.suptitle(title)
-    fig.tight_layout()
-    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
-    fig.savefig(path, dpi=80)
-    plt.close(fig)
+    save_figure(fig, path, title, dpi=80)

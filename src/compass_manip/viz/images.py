@@ -36,12 +36,7 @@ def save_frame_png(frame: Frame, path: str, target_label: int | None = None, tit
     for ax in axes:
         ax.set_xticks([])
         ax.set_yticks([])
-    if title:
-        fig.suptitle(title)
-    fig.tight_layout()
-    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
+    save_figure(fig, path, title)
 
 
 def save_rgb_png(rgb: np.ndarray, path: str) -> None:
@@ -52,3 +47,15 @@ def save_rgb_png(rgb: np.ndarray, path: str) -> None:
 
     os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
     plt.imsave(path, rgb)
+
+
+def save_figure(fig, path: str, title: str = "", dpi: int = 90) -> None:
+    """Title (if any), tight layout, write `path` (its folder created) and close the figure."""
+    import matplotlib.pyplot as plt
+
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+    fig.savefig(path, dpi=dpi)
+    plt.close(fig)
