@@ -41,7 +41,10 @@ class Decision:
     the method's map) or None with `stop` set; `phase` it belongs to; `plans_attempted` /
     `plans_succeeded`: path validations this decision tried and passed (for MPSR);
     `compute_s` [s] wall time of the decision; `stats`: named figures for logs
-    (e.g. tree size, chosen utility terms)."""
+    (e.g. tree size, chosen utility terms); `debug`: read-only arrays for viewers (video,
+    Rerun), never read by the trial: for tree methods 'tree_cam_world' (N, 3) [m] and
+    'tree_view_dir' (N, 3) camera positions and optical axes of the nodes, 'tree_parent'
+    (N,) (-1 at the root), 'tree_utility' (N,) (-inf: not a candidate), 'chosen_node'."""
 
     path: np.ndarray | None
     stop: StopReason | None
@@ -50,6 +53,7 @@ class Decision:
     plans_succeeded: int = 0
     compute_s: float = 0.0
     stats: dict = field(default_factory=dict)
+    debug: dict = field(default_factory=dict)
 
 
 class ExplorationMethod(Protocol):

@@ -158,7 +158,7 @@ class CompassMethod:
                  "checker_ms": 1000 * (t1 - t0), "nbv_ms": 1000 * (time.perf_counter() - t1)}
         if not np.isfinite(scored.U).any():
             stop = StopReason.EXPLORED if not frontiers else StopReason.NO_REACHABLE_VIEW
-            return Decision(None, stop, Phase.EXPLORE, stats=stats)
+            return Decision(None, stop, Phase.EXPLORE, stats=stats, debug=tree_debug(scored))
         checker = self.world.checker
         order = np.argsort(-scored.U, kind="stable")
         for k in order[: config.max_attempts]:
@@ -172,8 +172,18 @@ class CompassMethod:
             self.t_prev = scored.T_world_cam[0, :3, 3].copy()
             stats.update(node=int(k), G=float(scored.G[k]), D=float(scored.D[k]), M=float(scored.M[k]),
                          H=float(scored.H[k]), C=float(scored.C[k]), U=float(scored.U[k]))
-            return Decision(path, None, Phase.EXPLORE, attempted, succeeded, stats=stats)
-        return Decision(None, StopReason.PLANNING_FAILED, Phase.EXPLORE, attempted, succeeded, stats=stats)
+            return Decision(path, None, Phase.EXPLORE, attempted, succeeded, stats=stats,
+                            debug=tree_debug(scored, int(k)))
+        return Decision(None, StopReason.PLANNING_FAILED, Phase.EXPLORE, attempted, succeeded, stats=stats,
+                        debug=tree_debug(scored))
+
+
+def tree_debug(scored, chosen: int | None = None) -> dict:
+    """`Decision.debug` of a scored viewpoint tree (copies: viewers may keep them)."""
+    n = len(scored.U)
+    return {"tree_cam_world": scored.T_world_cam[:, :3, 3].copy(), "tree_view_dir": scored.T_world_cam[:, :3, 2].copy(),
+            "tree_parent": np.asarray(scored.tree.parent[:n]).copy(), "tree_utility": scored.U.copy(),
+            "chosen_node": chosen}
 
 
 def _scaled(tree: TreeConfig, factor: int) -> TreeConfig:

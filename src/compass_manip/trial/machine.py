@@ -20,6 +20,7 @@ import numpy as np
 from ..exploration.base import Phase, StopReason
 from ..motion.timing import time_parameterize
 from ..sim.executor import ExecutorConfig, execute
+from .observer import TrialObserver
 from .result import TrialFailure
 
 _STOP_TO_FAILURE = {
@@ -55,11 +56,14 @@ class MachineOutcome:
 
 class TrialMachine:
     """Runs one trial of `method` in `world` (see the module docstring). `pass_frames`: push
-    whole frames (with labels) to the buffer, for the oracle detector only."""
+    whole frames (with labels) to the buffer, for the oracle detector only. `observer`: a
+    `trial.observer.TrialObserver` told of every event (read-only; video, Rerun)."""
 
-    def __init__(self, world, method, buffer, metrics, config, progress=None, pass_frames: bool = False) -> None:
+    def __init__(self, world, method, buffer, metrics, config, progress=None, pass_frames: bool = False,
+                 observer=None) -> None:
         self.world, self.method, self.buffer, self.metrics, self.config = world, method, buffer, metrics, config
         self.progress = progress
+        self.observer = observer if observer is not None else TrialObserver()
         self.pass_frames = pass_frames
         self.t = 0.0
         self.states: list[TrialState] = []
@@ -70,10 +74,12 @@ class TrialMachine:
         self.method.observe(obs)
         self.buffer.push(frame if self.pass_frames else obs)
         self.cam.append(frame.T_world_cam[:3, 3].copy())
+        self.observer.frame(frame, self.method)
 
     def _enter(self, state: TrialState) -> None:
         if not self.states or self.states[-1] is not state:
             self.states.append(state)
+            self.observer.state(self.t, state)
 
     def run(self) -> MachineOutcome:
         config = self.config
@@ -82,6 +88,7 @@ class TrialMachine:
         ex_cfg = ExecutorConfig(frame_rate=config.sensing.frame_rate, check_step=config.sensing.check_step,
                                 render_rgb=True, render_seg=render_seg)
         q0 = self.world.q
+        self.observer.start(self.world, self.method)
         self._feed(self.world.render(q0, t=0.0, rgb=True, seg=render_seg))
         self.metrics.explored_fraction(0.0, self.method.occupancy)
         failure, found = None, None
@@ -90,6 +97,7 @@ class TrialMachine:
             self.method.add_points_of_interest(self.buffer.take_hints())
             found = self.buffer.best()
             if found is not None:
+                self.observer.detection(self.t, found)
                 self._enter(TrialState.FOUND)
                 break
             if self.t >= limit:
@@ -98,6 +106,7 @@ class TrialMachine:
             d = self.method.decide()
             self._enter(TrialState.NFA if d.phase is Phase.NFA else TrialState.EXPLORE)
             self.metrics.decision(d)
+            self.observer.decision(self.t, d, self.method)
             self.t += d.compute_s if config.clock.measured else config.clock.planning_charge_s
             if d.stop is not None:
                 failure = _STOP_TO_FAILURE[d.stop]
@@ -105,6 +114,7 @@ class TrialMachine:
             traj = time_parameterize(d.path, config.timing)
             t_start = self.t
             res = execute(self.world, traj, ex_cfg, t0=t_start)
+            self.observer.motion(traj, t_start, res.t_end)
             for f in res.frames:
                 self._feed(f)
             self.t = res.t_end
@@ -125,5 +135,7 @@ class TrialMachine:
             if t_found > limit:
                 failure, found, t_found = TrialFailure.TIME_LIMIT, None, None
         self._enter(TrialState.DONE if failure is None else TrialState.FAILED)
-        return MachineOutcome(failure, found, t_found, self.t, tuple(self.states), np.array(self.cam).reshape(-1, 3),
-                              self.world.q)
+        outcome = MachineOutcome(failure, found, t_found, self.t, tuple(self.states),
+                                 np.array(self.cam).reshape(-1, 3), self.world.q)
+        self.observer.end(outcome)
+        return outcome

@@ -76,7 +76,9 @@ def run_trial(spec: TrialSpec, config: TrialConfig | None = None, progress=None)
     return run_trial_full(spec, config, progress).result
 
 
-def run_trial_full(spec: TrialSpec, config: TrialConfig | None = None, progress=None) -> TrialRun:
+def run_trial_full(spec: TrialSpec, config: TrialConfig | None = None, progress=None, observer=None) -> TrialRun:
+    """Run one trial; `observer` (a `trial.observer.TrialObserver`, e.g. a video or Rerun
+    recorder) is told of every event and closed at the end, also when the trial raises."""
     config = config or TrialConfig()
     check_spec(spec)
     wall0 = time.perf_counter()
@@ -96,10 +98,13 @@ def run_trial_full(spec: TrialSpec, config: TrialConfig | None = None, progress=
     buffer = DetectionBuffer(detector, task.target, config.buffer)
     metrics = MetricsRecorder(PandaKinematics(world.robot), target_surroundings(scene, config.surroundings_margin))
     try:
-        outcome = TrialMachine(world, method, buffer, metrics, config, progress, pass_frames=oracle).run()
+        outcome = TrialMachine(world, method, buffer, metrics, config, progress, pass_frames=oracle,
+                               observer=observer).run()
     finally:
         buffer.close()
         world.close()
+        if observer is not None:
+            observer.close()
     failure = outcome.failure
     true_det = None
     if outcome.found is not None:
