@@ -2,11 +2,13 @@
 
 Runs the whole loop (near-field scan, MUE-RRT decisions, asynchronous detection, the trial
 state machine on the simulated clock) and writes the trial's outputs: result.json (metrics,
-config, scene), camera_path.png (the executed camera path over the scene) and explored.png
-(the explored fraction of the target's surroundings over time). Prints where they are.
+config, scene), camera_path.png (the executed camera path over the scene), explored.png
+(the explored fraction of the target's surroundings over time) and trial.mp4 (the trial's
+video, `viz.video`; `--no-video` skips it). Prints where they are.
 """
 from __future__ import annotations
 
+import argparse
 import json
 import os
 
@@ -23,14 +25,19 @@ def add_arguments(p) -> None:
     p.add_argument("--time-limit", type=float, default=200.0, help="simulated time limit [s] (default 200)")
     p.add_argument("--out", default="outputs/demo", help="output folder (default outputs/demo)")
     p.add_argument("--json", action="store_true", help="print the result as one JSON object on stdout")
+    p.add_argument("--video", action=argparse.BooleanOptionalAction, default=True,
+                   help="write trial.mp4 into the output folder (default: yes)")
 
 
 def run(args) -> int:
     from .run import run_checked_trial, save_trial
 
+    video = os.path.join(args.out, "trial.mp4") if args.video and args.out else None
     result_run, config, out = run_checked_trial(
-        "demo", (args.method, args.level, args.index, args.trial, args.seed), args.time_limit, args.out)
+        "demo", (args.method, args.level, args.index, args.trial, args.seed), args.time_limit, args.out, video=video)
     paths = save_trial(result_run, config, out)
+    if video is not None:
+        paths["video"] = os.path.abspath(video)
     r = result_run.result.to_dict()
     if args.json:
         print(json.dumps({**r, "outputs": paths}))

@@ -6,7 +6,7 @@ import os
 import sys
 
 from ..errors import CompassInputError
-from ..paths import check_output_dir
+from ..paths import check_output_dir, check_output_file
 
 HELP = "run one trial of an exploration method and print its metrics"
 
@@ -20,6 +20,10 @@ def add_arguments(p) -> None:
     p.add_argument("--json", action="store_true", help="print one JSON object instead of a table")
     p.add_argument("--time-limit", type=float, default=200.0, help="simulated time limit [s] (default 200)")
     p.add_argument("--out", default=None, help="folder for result.json and the PNGs")
+    p.add_argument("--video", default=None, metavar="PATH.mp4",
+                   help="write an MP4 of the trial on the simulated timeline (10 frames per simulated second)")
+    p.add_argument("--record", default=None, metavar="PATH.rrd",
+                   help="write a Rerun recording (needs the [viz] extra: rerun-sdk)")
 
 
 def check_out(out: str | None) -> str | None:
@@ -27,29 +31,63 @@ def check_out(out: str | None) -> str | None:
     return None if out is None else check_output_dir(out)
 
 
-def run_checked_trial(command: str, spec_args: tuple, time_limit: float, out: str | None):
-    """Check a trial's spec, time limit [s] and output folder (before any work), run it with
-    a progress line on stderr; returns (TrialRun, TrialConfig, output folder or None)."""
+def check_media_path(path: str | None, option: str, suffix: str) -> str | None:
+    """The absolute path of a video / recording file to write (its folder must exist and be
+    writable, the name must end in `suffix`), or None; one-line CompassInputError otherwise."""
+    if path is None:
+        return None
+    if not os.fspath(path).lower().endswith(suffix):
+        raise CompassInputError(f"{option} {path!r} is not allowed; give a file name ending in {suffix}")
+    return check_output_file(path, option)
+
+
+def run_checked_trial(command: str, spec_args: tuple, time_limit: float, out: str | None,
+                      video: str | None = None, record: str | None = None):
+    """Check a trial's spec, time limit [s], output folder, video and recording paths (and
+    that rerun-sdk is installed for a recording) before any work, run it with a progress
+    line on stderr; returns (TrialRun, TrialConfig, output folder or None)."""
     from ..trial.runner import TrialSpec, check_spec
 
     spec = check_spec(TrialSpec(*spec_args))
     if not 0 < time_limit <= 3600:
         raise CompassInputError(f"--time-limit {time_limit} s is not allowed; use 0 < limit <= 3600 s")
     out = check_out(out)
+    video = check_media_path(video, "--video", ".mp4")
+    record = check_media_path(record, "--record", ".rrd")
+    if record is not None:
+        from ..viz.rerun_log import require_rerun
+
+        require_rerun()
     from ..trial.config import TrialConfig
+    from ..trial.observer import ObserverGroup
     from ..trial.runner import run_trial_full
 
     config = TrialConfig(time_limit_s=time_limit)
+    title = f"{spec.method} L{spec.level} s{spec.scene} t{spec.trial}"
+    observers = []
+    if video is not None:
+        from ..viz.video import VideoRecorder
+
+        observers.append(VideoRecorder(video, title=title))
+    if record is not None:
+        from ..viz.rerun_log import RerunRecorder
+
+        observers.append(RerunRecorder(record, title=title))
     print(f"compass {command}: {spec.method} on level {spec.level} scene {spec.scene} trial {spec.trial} "
           f"seed {spec.seed}", file=sys.stderr)
-    result_run = run_trial_full(spec, config, lambda line: print(f"\r  {line}", end="", file=sys.stderr, flush=True))
+    result_run = run_trial_full(spec, config, lambda line: print(f"\r  {line}", end="", file=sys.stderr, flush=True),
+                                observer=ObserverGroup(observers) if observers else None)
     print("", file=sys.stderr)
+    for option, path in (("video", video), ("recording", record)):
+        if path is not None:
+            print(f"compass {command}: {option} written to {path}", file=sys.stderr)
     return result_run, config, out
 
 
 def run(args) -> int:
     result_run, config, out = run_checked_trial(
-        "run", (args.method, args.level, args.scene, args.trial, args.seed), args.time_limit, args.out)
+        "run", (args.method, args.level, args.scene, args.trial, args.seed), args.time_limit, args.out,
+        video=args.video, record=args.record)
     record = result_run.result.to_dict()
     if out is not None:
         save_trial(result_run, config, out)

@@ -63,7 +63,7 @@ class SceneCamera:
         self.cam.type = mujoco.mjtCamera.mjCAMERA_FREE
         lo, hi = np.array(world.scene.cabinet.interior_min), np.array(world.scene.cabinet.interior_max)
         self.cam.lookat[:] = 0.5 * (np.array([0.1, 0.0, 0.4]) + 0.5 * (lo + hi))
-        self.cam.azimuth, self.cam.elevation, self.cam.distance = -35.0, -30.0, 1.7
+        self.cam.azimuth, self.cam.elevation, self.cam.distance = -35.0, -30.0, 2.0
         self.opt = mujoco.MjvOption()
         self.opt.geomgroup[:] = [1, 1, 1, 1, 0, 0]
 
