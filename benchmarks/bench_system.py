@@ -4,11 +4,16 @@ Prints one JSON object per line (bench.stats). Run: `.venv/bin/python benchmarks
 - bench.store_add_ms: one trial row written in its own transaction (a 200-point explored curve).
 - bench.runner_overhead_ms_per_trial: sweep wall time per trial with a zero-time synthetic
   trial on one worker (process start-up, IPC, store, progress), i.e. what the runner adds.
-- bench.trials_per_hour: real simulated trials on this machine (2 workers); only when the
-  trial package is in this build, otherwise said on stderr.
-- bench.local_speedup_2_vs_1 / bench.ray_speedup_2_vs_1: sweep wall time of 4 synthetic
-  trials that each sleep 1 s on 1 worker over 2 workers (scheduling, not compute; Ray only
-  when installed, each run including its ray.init).
+- bench.trials_per_hour: real simulated trials per hour on this machine with the local
+  pool on 2 workers: 4 COMPASS trials (scene 0 of levels 1-4, the default 200 s limit),
+  3600 * 4 / sweep wall time (worker start-up included; after one warm-up run of the same
+  trials, which certifies and caches the scenes); the 1-worker figure beside it.
+- bench.local_scaling_2v1 / bench.ray_scaling_2v1: sweep wall time of those 4 real trials
+  on 1 worker over 2 workers, with the local process pool and with a fresh local Ray
+  instance of 2 CPUs (each Ray run including ray.init and its shutdown; its init time is
+  printed as ray_init_s). On 2 cores shared with other work this is bounded by the load.
+- bench.local_speedup_2_vs_1 / bench.ray_speedup_2_vs_1: the same for 4 synthetic trials
+  that each sleep 1 s (scheduling, not compute; Ray only when installed).
 """
 from __future__ import annotations
 
@@ -44,6 +49,44 @@ def sweep_wall_s(tmp: str, name: str, config: SweepConfig, trial_fn) -> float:
     return time.perf_counter() - t0
 
 
+def ray_sweep_wall_s(tmp: str, name: str, config: SweepConfig, trial_fn) -> tuple[float, float]:
+    """(sweep wall time, ray.init time) [s] on a fresh local Ray instance of 2 CPUs."""
+    import ray
+
+    t0 = time.perf_counter()
+    ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False, configure_logging=False)
+    t_init = time.perf_counter() - t0
+    try:
+        run_sweep(SweepConfig(**{**config.__dict__, "ray_address": "local"}), os.path.join(tmp, name),
+                  trial_fn=trial_fn, progress=False)
+    finally:
+        ray.shutdown()
+    return time.perf_counter() - t0, t_init
+
+
+def real_trials(tmp: str, real, ctx: dict) -> None:
+    """bench.trials_per_hour, bench.local_scaling_2v1 and bench.ray_scaling_2v1 on 4 real trials."""
+    one = SweepConfig(methods=("compass",), levels=(1, 2, 3, 4), scenes=1, trials=1, workers=1)
+    two = SweepConfig(**{**one.__dict__, "workers": 2})
+    n = len(one.specs())
+    # the first run of a scene certifies and caches it and loads numba's cache: warm up once
+    warm = sweep_wall_s(tmp, "warm.sqlite", two, real)
+    w1, w2 = sweep_wall_s(tmp, "real1.sqlite", one, real), sweep_wall_s(tmp, "real2.sqlite", two, real)
+    emit_value("bench.trials_per_hour", n * 3600.0 / w2, "trials/h", digits=1, n=n, workers=2,
+               one_worker=round(n * 3600.0 / w1, 1), trials="compass, scene 0 of levels 1-4", **ctx)
+    emit_value("bench.local_scaling_2v1", w1 / w2, "x", digits=2, wall_1_s=round(w1, 2), wall_2_s=round(w2, 2),
+               warmup_s=round(warm, 2), n=n, **ctx)
+    try:
+        import ray  # noqa: F401
+    except ImportError:
+        print("bench.ray_scaling_2v1 skipped: ray (the [cluster] extra) is not installed", file=sys.stderr)
+        return
+    (r1, i1), (r2, i2) = ray_sweep_wall_s(tmp, "ray1.sqlite", one, real), ray_sweep_wall_s(tmp, "ray2.sqlite", two, real)
+    emit_value("bench.ray_scaling_2v1", r1 / r2, "x", digits=2, wall_1_s=round(r1, 2), wall_2_s=round(r2, 2),
+               ray_init_s=[round(i1, 2), round(i2, 2)], n=n, context="each run includes ray.init and shutdown",
+               **{**ctx, "load_1min": load_average()})
+
+
 def main() -> None:
     ctx = {"load_1min": load_average(), "cpus": os.cpu_count()}
     with tempfile.TemporaryDirectory() as tmp:
@@ -60,9 +103,7 @@ def main() -> None:
         except Exception as exc:  # noqa: BLE001 (the trial package may be absent in this build)
             print(f"bench.trials_per_hour skipped: {exc}", file=sys.stderr)
         else:
-            config = SweepConfig(methods=("compass",), levels=(1,), scenes=1, trials=4, workers=2)
-            wall = sweep_wall_s(tmp, "real.sqlite", config, real)
-            emit_value("bench.trials_per_hour", 4 * 3600.0 / wall, "trials/h", digits=1, n=4, workers=2, **ctx)
+            real_trials(tmp, real, ctx)
 
         sleepy = partial(synthetic_trial, config=SyntheticConfig(sleep_s=1.0))
         one = SweepConfig(methods=("compass",), levels=(1,), scenes=4, trials=1, workers=1)
