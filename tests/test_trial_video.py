@@ -217,8 +217,16 @@ def test_record_without_rerun_names_the_extra(tmp_path, capsys, monkeypatch):
     assert not (tmp_path / "t.rrd").exists()
 
 
-def test_cli_run_writes_the_video(tmp_path, capsys):
-    path = tmp_path / "short.mp4"
-    assert main(["run", "--level", "1", "--scene", "0", "--time-limit", "2", "--json", "--video", str(path)]) == 0
-    assert "video written to" in capsys.readouterr().err
-    assert path.stat().st_size > 0
+def test_cli_run_writes_the_video_and_the_recording(tmp_path, capsys):
+    path, rrd = tmp_path / "short.mp4", tmp_path / "short.rrd"
+    try:
+        import rerun  # noqa: F401
+        record = ["--record", str(rrd)]
+    except ImportError:
+        record = []
+    argv = ["run", "--level", "1", "--scene", "0", "--time-limit", "2", "--json", "--video", str(path), *record]
+    assert main(argv) == 0
+    err = capsys.readouterr().err
+    assert "video written to" in err and path.stat().st_size > 0
+    if record:
+        assert "recording written to" in err and rrd.read_bytes()[:4] == b"RRF2"
