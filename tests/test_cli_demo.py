@@ -11,14 +11,17 @@ def test_demo_runs_a_level4_trial_and_writes_outputs(tmp_path, capsys):
     rec = json.loads(capsys.readouterr().out)
     assert rec["level"] == 4 and rec["method"] == "compass" and rec["decisions"] >= 1
     assert 0 < rec["tft_s"] <= 15
-    for key, name in (("json", "result.json"), ("camera_path", "camera_path.png"), ("explored", "explored.png")):
+    for key, name in (("json", "result.json"), ("camera_path", "camera_path.png"), ("explored", "explored.png"),
+                      ("video", "trial.mp4")):
         assert rec["outputs"][key].endswith(name) and (out / name).stat().st_size > 0
 
 
 def test_demo_prints_where_the_outputs_are(tmp_path, capsys):
-    assert main(["demo", "--level", "1", "--index", "1", "--out", str(tmp_path / "d"), "--time-limit", "5"]) == 0
+    out = tmp_path / "d"
+    assert main(["demo", "--level", "1", "--index", "1", "--out", str(out), "--time-limit", "5", "--no-video"]) == 0
     text = capsys.readouterr().out
     assert "outputs in" in text and "camera_path.png" in text
+    assert "trial.mp4" not in text and not (out / "trial.mp4").exists()
 
 
 def test_demo_rejects_bad_input(capsys):
