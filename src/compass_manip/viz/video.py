@@ -111,7 +111,7 @@ class VideoRecorder(TrialObserver):
         self._found_t = self._detection_xy = self._tree = self._chosen = None
         self._cam_path: list[np.ndarray] = []
         self._overview_key, self._overview = None, None
-        self._wrist = np.zeros((c.panel_height, c.panel_width, 3), np.uint8)
+        self._wrist = panels.with_title(np.zeros((c.panel_height, c.panel_width, 3), np.uint8), "wrist camera")
         self._map = self._draw_map()
 
     def state(self, t, state) -> None:
@@ -143,7 +143,8 @@ class VideoRecorder(TrialObserver):
         self._q = np.asarray(frame.q, float).copy()
         self._cam_path.append(frame.T_world_cam[:3, 3].copy())
         if frame.rgb is not None and self._found_t is None:
-            self._wrist = panels.fit(frame.rgb, self.config.panel_width, self.config.panel_height)
+            self._wrist = panels.with_title(panels.fit(frame.rgb, self.config.panel_width, self.config.panel_height),
+                                            "wrist camera")
         self._map = self._draw_map()
 
     def detection(self, t, found) -> None:
@@ -154,7 +155,8 @@ class VideoRecorder(TrialObserver):
         rgb = found.observation.rgb
         if rgb is not None:
             boxed = panels.draw_box(rgb, det.bbox, f"target {det.score:.2f}")
-            self._wrist = panels.fit(boxed, self.config.panel_width, self.config.panel_height)
+            self._wrist = panels.with_title(panels.fit(boxed, self.config.panel_width, self.config.panel_height),
+                                            "wrist camera: accepted detection")
         self._map = self._draw_map()
 
     def end(self, outcome) -> None:
@@ -194,17 +196,18 @@ class VideoRecorder(TrialObserver):
         q = self._arm_at(tau)
         key = np.round(q, 6).tobytes()
         if key != self._overview_key:
-            self._overview_key, self._overview = key, self._scene_cam.render(self._qpos, q)
+            self._overview_key = key
+            self._overview = panels.with_title(self._scene_cam.render(self._qpos, q), "scene")
         found = "no" if self._found_t is None or tau < self._found_t else f"at {self._found_t:.1f} s"
         text = (f"{self.title}  t = {tau:6.1f} s  {self._state}  decisions {self._decisions}{self._last}  "
                 f"found: {found}")
-        return panels.tile([panels.with_title(self._overview, "scene"), panels.with_title(self._wrist, "wrist camera"),
-                            panels.with_title(self._map, "map from above")],
-                           panels.caption(text, 3 * c.panel_width, c.caption_height))
+        return panels.tile([self._overview, self._wrist, self._map], panels.caption(text, 3 * c.panel_width,
+                                                                                    c.caption_height))
 
     def _draw_map(self) -> np.ndarray:
         path = np.array(self._cam_path).reshape(-1, 3)
-        return self._top.draw(self._occ, path, self._tree, self._chosen, self._detection_xy)
+        return panels.with_title(self._top.draw(self._occ, path, self._tree, self._chosen, self._detection_xy),
+                                 "map from above")
 
     def _write(self, rgb: np.ndarray) -> None:
         if self._writer is None:
