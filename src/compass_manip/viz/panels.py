@@ -77,7 +77,7 @@ def draw_box(rgb: np.ndarray, bbox, label: str) -> np.ndarray:
 def map_columns(occ, region: TopViewRegion, z_lo: float, z_hi: float):
     """Per map column of the region between heights z_lo..z_hi [m]: unknown fraction, any
     occupied, any frontier (each (nx, ny) over world x, y) and the world (x, y) [m] of voxel
-    column [0, 0]."""
+    column [0, 0]'s centre."""
     lo = occ.world_to_voxel(np.array([[region.x_min, region.y_min, z_lo]]))[0]
     hi = occ.world_to_voxel(np.array([[region.x_max, region.y_max, z_hi]]))[0]
     lo = np.clip(lo, 0, np.array(occ.shape) - 1)
@@ -126,8 +126,8 @@ class TopView:
         # voxel columns (i along x, j along y) -> image rows (x up) and columns (y to the left)
         img = Image.fromarray(np.ascontiguousarray(rgb[::-1, ::-1]))
         res = occ.resolution
-        x_hi, y_hi = origin[0] + res * unknown.shape[0], origin[1] + res * unknown.shape[1]
-        (u_a, v_a), (u_b, v_b) = self.px([x_hi, y_hi]), self.px(origin)
+        low = origin - res / 2  # the low corner of voxel column [0, 0] (origin is its centre)
+        (u_a, v_a), (u_b, v_b) = self.px(low + res * np.array(unknown.shape)), self.px(low)
         w, h = max(1, round(u_b - u_a)), max(1, round(v_b - v_a))
         out = Image.new("RGB", (self.width, self.height), BACKGROUND)
         out.paste(img.resize((w, h), Image.NEAREST), (round(u_a), round(v_a)))
