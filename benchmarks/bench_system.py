@@ -81,10 +81,11 @@ def real_trials(tmp: str, real, ctx: dict) -> None:
     except ImportError:
         print("bench.ray_scaling_2v1 skipped: ray (the [cluster] extra) is not installed", file=sys.stderr)
         return
-    (r1, i1), (r2, i2) = ray_sweep_wall_s(tmp, "ray1.sqlite", one, real), ray_sweep_wall_s(tmp, "ray2.sqlite", two, real)
+    r1, i1 = ray_sweep_wall_s(tmp, "ray1.sqlite", one, real)
+    r2, i2 = ray_sweep_wall_s(tmp, "ray2.sqlite", two, real)
     emit_value("bench.ray_scaling_2v1", r1 / r2, "x", digits=2, wall_1_s=round(r1, 2), wall_2_s=round(r2, 2),
-               ray_init_s=[round(i1, 2), round(i2, 2)], excluding_init=round((r1 - i1) / (r2 - i2), 2), n=n, context="each run includes ray.init and shutdown",
-               **{**ctx, "load_1min": load_average()})
+               ray_init_s=[round(i1, 2), round(i2, 2)], excluding_init=round((r1 - i1) / (r2 - i2), 2), n=n,
+               context="each run includes ray.init and shutdown", **{**ctx, "load_1min": load_average()})
 
 
 def main() -> None:

@@ -122,7 +122,8 @@ class RerunRecorder(TrialObserver):
             self.rec.log("world/tree/edges", rr.LineStrips3D(edges, radii=0.002, colors=(120, 120, 200)))
             k = dbg.get("chosen_node")
             if k is not None and "tree_view_dir" in dbg:
-                self.rec.log("world/tree/chosen", rr.Arrows3D(origins=[pos[k]], vectors=[0.15 * dbg["tree_view_dir"][k]],
+                axis = np.asarray(dbg["tree_view_dir"], float)[k]
+                self.rec.log("world/tree/chosen", rr.Arrows3D(origins=[pos[k]], vectors=[0.15 * axis],
                                                               colors=(230, 30, 30), radii=0.008))
         stats = ", ".join(f"{k} {v:.3g}" if isinstance(v, float) else f"{k} {v}" for k, v in decision.stats.items())
         what = "stop " + decision.stop.name.lower() if decision.stop is not None else "move"

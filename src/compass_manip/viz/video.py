@@ -2,8 +2,8 @@
 
 One video frame every 1 / fps seconds of simulated time (`VideoConfig.fps`, 10 by default),
 from t = 0 to the first tick at or after the trial's end (which shows the final state), so a
-trial of T seconds gives ceil(T * fps) + 1 frames and plays in real time. Each frame shows, left to right: the scene from a fixed
-external camera with the robot where it is at that instant (interpolated along the
+trial of T seconds gives ceil(T * fps) + 1 frames and plays in real time. Each frame shows,
+left to right: the scene from a fixed external camera with the robot where it is at that instant (interpolated along the
 running trajectory), the wrist camera's last RGB frame (with the accepted detection's box
 once there is one), the method's map from above (`viz.panels.TopView`), and below them a
 caption (simulated time, state, decisions, found). Between events the panels are held.
