@@ -230,3 +230,23 @@ def test_cli_run_writes_the_video_and_the_recording(tmp_path, capsys):
     assert "video written to" in err and path.stat().st_size > 0
     if record:
         assert "recording written to" in err and rrd.read_bytes()[:4] == b"RRF2"
+
+
+def test_a_trial_that_raises_still_closes_the_video(tmp_path):
+    import imageio.v2 as imageio
+
+    class Boom(TrialObserver):
+        def decision(self, t, decision, method):
+            if t > 0.5:
+                raise RuntimeError("boom")
+
+    video = VideoRecorder(str(tmp_path / "partial.mp4"))
+    with pytest.raises(RuntimeError, match="boom"):
+        run_trial_full(TrialSpec("compass", level=1, scene=0), TrialConfig(time_limit_s=10.0),
+                       observer=ObserverGroup([video, Boom()]))
+    assert video.frames_written > 0
+    reader = imageio.get_reader(str(tmp_path / "partial.mp4"))
+    try:
+        assert reader.count_frames() == video.frames_written  # a finished, readable file
+    finally:
+        reader.close()
