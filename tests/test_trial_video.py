@@ -140,7 +140,7 @@ def test_video_has_one_frame_per_tenth_of_simulated_second(recorded):
 
 
 def test_rerun_recording_holds_the_trial(recorded):
-    rr = pytest.importorskip("rerun")
+    rr = pytest.importorskip("rerun", exc_type=ImportError)
     rrd = recorded[-1]
     assert rrd is not None and rrd.read_bytes()[:4] == b"RRF2"
     reader = rr.chunk.RrdReader(str(rrd))
@@ -156,7 +156,7 @@ def test_rerun_recording_holds_the_trial(recorded):
 
 
 def test_rerun_grasp_candidates_are_logged(tmp_path):
-    rr = pytest.importorskip("rerun")
+    rr = pytest.importorskip("rerun", exc_type=ImportError)
     from compass_manip.viz.rerun_log import RerunRecorder
 
     rec = RerunRecorder(str(tmp_path / "g.rrd"))
