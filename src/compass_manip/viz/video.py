@@ -97,6 +97,7 @@ class VideoRecorder(TrialObserver):
     def start(self, world, method) -> None:
         c = self.config
         self._scene_cam = SceneCamera(world, c.panel_width, c.panel_height)
+        self._world = world  # read only: its joint positions (objects, fingers) at each frame
         self._qpos = world.data.qpos.copy()
         self._q = world.q
         self._kin = PandaKinematics(world.robot)
@@ -141,6 +142,7 @@ class VideoRecorder(TrialObserver):
     def frame(self, frame, method) -> None:
         self._advance(frame.t)
         self._q = np.asarray(frame.q, float).copy()
+        self._qpos = self._world.data.qpos.copy()
         self._cam_path.append(frame.T_world_cam[:3, 3].copy())
         if frame.rgb is not None and self._found_t is None:
             self._wrist = panels.with_title(panels.fit(frame.rgb, self.config.panel_width, self.config.panel_height),
