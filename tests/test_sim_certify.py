@@ -139,3 +139,41 @@ def test_bad_arguments():
         certified_scene(1, -1)
     with pytest.raises(CompassInputError, match="seed -3"):
         certified_scene(1, 0, -3)
+
+
+def test_reference_set_holds_the_grid_and_every_fv_baseline_pose_outside_the_opening():
+    from compass_manip.exploration.fixed_views import FixedViewsConfig, fixed_view_poses
+    from compass_manip.sim.fixed_views import grid_views, reference_fixed_views
+
+    task = _scene().task()
+    ref = reference_fixed_views(task)
+    fv = fixed_view_poses(task, FixedViewsConfig())
+    assert len(ref) == 9 + len(fv) and len(fv) >= 9
+    for T in list(grid_views(task.space)) + list(fv):  # the baseline's own views are all in the set
+        assert any(np.allclose(T, R) for R in ref)
+    x_opening = task.space.opening_min[0]
+    assert all(R[0, 3] < x_opening - 0.1 for R in ref)  # every eye outside the opening plane
+
+
+def test_coarse_view_visibility_is_refined_exactly_where_it_decides(base):
+    scene, coarse = base  # the default: coarse rays (view_stride 3), refined near and above the threshold
+    exact = certify(scene, CertifyConfig(view_stride=1))
+    assert coarse.certified and exact.certified
+    assert coarse.best_view_visibility == exact.best_view_visibility  # the best pose was refined
+    assert coarse.view_visibility_fraction == exact.view_visibility_fraction
+    assert coarse.path == exact.path  # the same good views, the same goals, the same plan
+    # pose by pose: exact wherever the value can decide, within the margin elsewhere
+    from compass_manip.sim import oracle
+    from compass_manip.sim.certify import _views
+
+    world = World(scene)
+    try:
+        ik, full = oracle.robot_ik(world.robot), oracle.ground_truth_checker(scene)
+        cfg = CertifyConfig()
+        v_c = _views(world, cfg, np.random.default_rng(5), ik, full, None).vis
+        v_e = _views(world, CertifyConfig(view_stride=1), np.random.default_rng(5), ik, full, None).vis
+    finally:
+        world.close()
+    near = v_e >= cfg.min_view_visibility - cfg.view_refine_margin
+    assert near.any() and np.array_equal(v_c[near], v_e[near])
+    assert np.all(v_c[~near] < cfg.min_view_visibility) and np.all(np.abs(v_c - v_e) < cfg.view_refine_margin)
