@@ -43,6 +43,16 @@ def test_constructed_scene_is_certified_with_its_measures(base):
     assert c.fv_solvable and c.best_fixed_view_visibility >= 0.3  # nothing hides it from outside
     assert c.best_view_visibility >= 0.3 and c.view_visibility_fraction > 0
     assert c.grasp_approach_deg is not None and 0.0 <= c.grasp_approach_deg <= 90.0
+    a = np.radians(c.grasp_yaw_deg)  # the yaw is the certified grasp's: its TCP moves that way from pre-grasp to grasp
+    world = World(scene)
+    try:
+        from compass_manip.robot.kinematics import PandaKinematics
+        kin = PandaKinematics(world.robot)
+        p_pre, p_grasp = (kin.T_world_tcp(np.array(c.path[k]))[:3, 3] for k in c.path_marks[1:3])
+    finally:
+        world.close()
+    d = p_grasp - p_pre
+    assert abs(np.degrees(np.arctan2(d[1], d[0])) - c.grasp_yaw_deg) < 2.0 and abs(c.grasp_yaw_deg) <= 55.0
     assert c.lift_height >= 0.03
     assert c.n_colour_distractors == 1 and c.n_shape_distractors == 1 and c.n_objects == 3
     assert len(c.path) >= 4 and len(c.path_marks) == 4 and c.path_marks[-1] == len(c.path) - 1

@@ -92,7 +92,9 @@ class Certificate:
     share of reachable sampled views that see enough; free_config_fraction: share of random
     configurations near home free for the sphere model; views/grasps_removed_by_obstacles:
     share of good views/grasps the base obstacles remove (0 without obstacles);
-    grasp_approach_deg: approach below the horizontal of the certified grasp (None if none);
+    grasp_approach_deg: approach below the horizontal of the certified grasp (None if none),
+    grasp_yaw_deg: its approach direction's angle about +z from the opening's inward normal +x
+    (0 = straight in, +-52 = the steepest diagonal candidate; None if none);
     lift_height [m] in physics; path: waypoints (n,7) [rad] home -> view -> pre-grasp -> grasp
     -> lift with path_marks the indices of view, pre-grasp, grasp, lift; stage_times_s [s].
     """
@@ -108,6 +110,7 @@ class Certificate:
     views_removed_by_obstacles: float = 0.0
     grasps_removed_by_obstacles: float = 0.0
     grasp_approach_deg: float | None = None
+    grasp_yaw_deg: float | None = None
     lift_height: float = 0.0
     n_objects: int = 0
     n_colour_distractors: int = 0
@@ -318,11 +321,18 @@ def _certify(scene: SceneSpec, config: CertifyConfig, world: World, t0: float) -
             marks = (len(path1) - 1, len(path1) + len(r2.path) - 2, len(path) - 2, len(path) - 1)
             lap("physics")
             world.set_q(home)
-            return done(None, grasp_approach_deg=g.approach_deg, lift_height=out.lift_height if out else 0.0,
+            return done(None, grasp_approach_deg=g.approach_deg, grasp_yaw_deg=_yaw_deg(g),
+                        lift_height=out.lift_height if out else 0.0,
                         path=tuple(tuple(float(v) for v in q) for q in path), path_marks=marks)
     lap("physics")
     world.set_q(home)
     return done(CertFailure.LIFT_FAILED, grasp_approach_deg=grasps[0].approach_deg)
+
+
+def _yaw_deg(g: GroundTruthGrasp) -> float:
+    """Approach direction's angle [deg] about +z from +x (the opening's inward normal)."""
+    a = g.T_world_tcp[:3, 2]
+    return round(float(np.degrees(np.arctan2(a[1], a[0]))), 1)
 
 
 def _line(a: np.ndarray, b: np.ndarray, duration: float = 1.2) -> Trajectory:
