@@ -58,7 +58,7 @@ class CertifyConfig:
     random configurations (uniform +-config_noise [rad] per joint about home), margin [m] of
     the sphere checker, plan_time_s [s] per planning query, max_grasp_candidates tried;
     view_stride: pixel stride of the coarse visibility of the sampled views, refined exactly
-    where the coarse value is >= min_view_visibility - view_refine_margin.
+    where the coarse value is within view_refine_margin of min_view_visibility.
     reject_fv_solvable_severe: make step 3 a gate. Off by default: with the approach corridor
     a grasp through the shelves needs, a reference fixed view looks along it in most severe
     candidates (measured: all 27 of 30 level-2 candidates that are hidden at start), so the
@@ -138,6 +138,7 @@ class CertifiedScene:
 
 @dataclass(frozen=True, eq=False)
 class _Views:
+    poses: list  # sampled T_world_cam
     vis: np.ndarray  # (n,) visibility of each sampled pose
     q_full: list  # per pose: valid IK solutions (k,7) with all obstacles
     n_good_without: int  # good views (reachable + seeing) without the base obstacles
@@ -174,16 +175,16 @@ def sample_view_poses(scene: SceneSpec, n: int, rng: np.random.Generator) -> lis
 
 
 def _views(world: World, config: CertifyConfig, rng, ik, full, without) -> _Views:
-    """Visibility of n_view_poses sampled poses by ray casting (the dominant cost: first through
-    every view_stride-th pixel, then exactly, through every pixel, for the poses whose coarse
-    estimate is within view_refine_margin of the threshold or above it, so every pose counted
-    as seeing enough is checked exactly); IK and collision checks for the first n_views (the
-    uniform sample behind the statistics) and for every further pose that sees enough (the
-    search for a good view)."""
+    """Visibility of n_view_poses sampled poses by ray casting (the dominant cost: through every
+    view_stride-th pixel, then exactly, through every pixel, where the coarse estimate is
+    within view_refine_margin of the threshold, so no pose is classed on the wrong side of it;
+    the certified view is checked exactly again in `_certify`); IK and collision checks for the
+    first n_views (the uniform sample behind the statistics) and for every further pose that
+    sees enough (the search for a good view)."""
     home = np.asarray(world.robot.q_home)
     poses = sample_view_poses(world.scene, config.n_view_poses, rng)
     vis = np.array([world.visibility_from(T, stride=config.view_stride, with_robot=False) for T in poses])
-    for i in np.nonzero(vis >= config.min_view_visibility - config.view_refine_margin)[0]:
+    for i in np.nonzero(np.abs(vis - config.min_view_visibility) < config.view_refine_margin)[0]:
         vis[i] = world.visibility_from(poses[i], with_robot=False)
     q_full, n_without = [], 0
     for i, T in enumerate(poses):
@@ -195,7 +196,7 @@ def _views(world: World, config: CertifyConfig, rng, ik, full, without) -> _View
         q_full.append(S[ok])
         if without is not None and len(S) and vis[i] >= config.min_view_visibility and without.are_valid(S).any():
             n_without += 1
-    return _Views(vis, q_full, n_without)
+    return _Views(poses, vis, q_full, n_without)
 
 
 def _monotonic(kin, path: np.ndarray, target: np.ndarray, step: float = 0.02) -> bool:
@@ -270,7 +271,7 @@ def _certify(scene: SceneSpec, config: CertifyConfig, world: World, t0: float) -
     r40, g40 = reach[:config.n_views], good[:config.n_views]  # the uniform sample
     rec.update(n_valid_views=int(r40.sum()),
                view_visibility_fraction=float(g40.sum() / r40.sum()) if r40.any() else 0.0,
-               best_view_visibility=float(views.vis[reach].max()) if reach.any() else 0.0)
+               best_view_visibility=_best_exact(world, views, reach))
     if obstacles:
         rec["views_removed_by_obstacles"] = 1.0 - good.sum() / views.n_good_without if views.n_good_without else 0.0
     lap("views")
@@ -303,6 +304,9 @@ def _certify(scene: SceneSpec, config: CertifyConfig, world: World, t0: float) -
     if path1 is None:
         lap("plan")
         return done(CertFailure.NO_PATH)
+    if world.visibility_from(ik.kin.T_world_cam(path1[-1]), with_robot=False) < config.min_view_visibility:
+        lap("plan")  # the certified view, exactly (the search used coarse rays far from the threshold)
+        return done(CertFailure.NO_VIEW_SEES_TARGET)
     r2 = plan(path1[-1], np.stack([g.q_pregrasp for g in grasps]), full, planner, rng)
     lap("plan")
     if not r2.success:
@@ -327,6 +331,14 @@ def _certify(scene: SceneSpec, config: CertifyConfig, world: World, t0: float) -
     lap("physics")
     world.set_q(home)
     return done(CertFailure.LIFT_FAILED, grasp_approach_deg=grasps[0].approach_deg)
+
+
+def _best_exact(world: World, views: _Views, reach: np.ndarray) -> float:
+    """Exact visibility of the reachable sampled pose with the highest estimate (0 if none)."""
+    if not reach.any():
+        return 0.0
+    i = int(np.flatnonzero(reach)[np.argmax(views.vis[reach])])
+    return float(world.visibility_from(views.poses[i], with_robot=False))
 
 
 def _yaw_deg(g: GroundTruthGrasp) -> float:
