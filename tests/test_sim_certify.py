@@ -175,14 +175,14 @@ def test_coarse_view_visibility_is_refined_exactly_where_it_decides(base):
     assert coarse.path == exact.path  # the same good views, the same goals, the same plan
     # pose by pose: exact wherever the value can decide, within the margin elsewhere
     from compass_manip.sim import oracle
-    from compass_manip.sim.certify import _views
+    from compass_manip.sim.view_search import search_views
 
     world = World(scene)
     try:
         ik, full = oracle.robot_ik(world.robot), oracle.ground_truth_checker(scene)
         cfg = CertifyConfig()
-        v_c = _views(world, cfg, np.random.default_rng(5), ik, full, None).vis
-        v_e = _views(world, CertifyConfig(view_stride=1), np.random.default_rng(5), ik, full, None).vis
+        v_c = search_views(world, cfg, np.random.default_rng(5), ik, full, None).vis
+        v_e = search_views(world, CertifyConfig(view_stride=1), np.random.default_rng(5), ik, full, None).vis
     finally:
         world.close()
     near = np.abs(v_c - cfg.min_view_visibility) < cfg.view_refine_margin

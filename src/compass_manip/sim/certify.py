@@ -26,7 +26,6 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..errors import CompassInputError
-from ..geometry import look_at, make_T, rot_z
 from ..motion.planner import PlannerConfig, plan
 from ..robot.model import Q_MAX, Q_MIN
 from ..types import Trajectory
@@ -36,6 +35,7 @@ from .oracle import GroundTruthGrasp, find_grasp  # noqa: F401  (re-exported for
 from .physics import grasp_and_lift
 from . import scene_cache
 from .scenes import SceneSpec
+from .view_search import best_exact_visibility, sample_view_poses, search_views  # noqa: F401
 from .world import World
 
 
@@ -60,9 +60,9 @@ class CertifyConfig:
     view_stride: pixel stride of the coarse visibility of the sampled views, refined exactly
     where the coarse value is within view_refine_margin of min_view_visibility.
     reject_fv_solvable_severe: make step 3 a gate. Off by default: with the approach corridor
-    a grasp through the shelves needs, a reference fixed view looks along it in most severe
-    candidates (measured: all 27 of 30 level-2 candidates that are hidden at start), so the
-    gate would reject nearly every one; fv_solvable is recorded per scene instead."""
+    a grasp through the shelves needs, a reference fixed view looks along it (measured: in
+    all 80 scenes of the default set, docs/scenes.md), so the gate would reject every
+    candidate; fv_solvable is recorded per scene instead."""
 
     n_views: int = 40
     n_view_poses: int = 160
@@ -136,69 +136,6 @@ class CertifiedScene:
     rejections: tuple[str, ...] = ()
 
 
-@dataclass(frozen=True, eq=False)
-class _Views:
-    poses: list  # sampled T_world_cam
-    vis: np.ndarray  # (n,) visibility of each sampled pose
-    q_full: list  # per pose: valid IK solutions (k,7) with all obstacles
-    n_good_without: int  # good views (reachable + seeing) without the base obstacles
-
-
-def _row_of(scene: SceneSpec) -> tuple[float, float]:
-    z = scene.target.aabb()[0][2]
-    for zf, zc in scene.cabinet.rows():
-        if zf - 1e-6 <= z <= zc:
-            return zf, zc
-    lo, hi = scene.cabinet.interior_min, scene.cabinet.interior_max
-    return lo[2], hi[2]
-
-
-def sample_view_poses(scene: SceneSpec, n: int, rng: np.random.Generator) -> list[np.ndarray]:
-    """Camera poses T_world_cam around the target's storey, in front of and inside the
-    opening, aimed near the target (ground truth: for certification only)."""
-    o_lo, o_hi = scene.cabinet.opening()
-    zf, zc = _row_of(scene)
-    t = scene.target.pos
-    x_front = o_lo[0]
-    out = []
-    while len(out) < n:
-        x = rng.uniform(x_front - 0.3, max(x_front - 0.25, t[0] - 0.12))
-        y = rng.uniform(o_lo[1] + 0.03, o_hi[1] - 0.03)
-        inside = x > x_front - 0.03
-        z = rng.uniform(zf + 0.03, zc - 0.03) if inside else rng.uniform(zf - 0.05, zc + 0.25)
-        eye = np.array([x, y, z])
-        aim = t + rng.normal(0.0, 0.015, 3)
-        if np.linalg.norm(aim - eye) < 0.16:
-            continue
-        out.append(look_at(eye, aim) @ make_T(rot_z(rng.uniform(-np.pi / 2, np.pi / 2))))
-    return out
-
-
-def _views(world: World, config: CertifyConfig, rng, ik, full, without) -> _Views:
-    """Visibility of n_view_poses sampled poses by ray casting (the dominant cost: through every
-    view_stride-th pixel, then exactly, through every pixel, where the coarse estimate is
-    within view_refine_margin of the threshold, so no pose is classed on the wrong side of it;
-    the certified view is checked exactly again in `_certify`); IK and collision checks for the
-    first n_views (the uniform sample behind the statistics) and for every further pose that
-    sees enough (the search for a good view)."""
-    home = np.asarray(world.robot.q_home)
-    poses = sample_view_poses(world.scene, config.n_view_poses, rng)
-    vis = np.array([world.visibility_from(T, stride=config.view_stride, with_robot=False) for T in poses])
-    for i in np.nonzero(np.abs(vis - config.min_view_visibility) < config.view_refine_margin)[0]:
-        vis[i] = world.visibility_from(poses[i], with_robot=False)
-    q_full, n_without = [], 0
-    for i, T in enumerate(poses):
-        if i >= config.n_views and vis[i] < config.min_view_visibility:
-            q_full.append(np.zeros((0, 7)))
-            continue
-        S = ik.solve(T, "cam", home, config.n_q7, retry=False).solutions
-        ok = full.are_valid(S) if len(S) else np.zeros(0, bool)
-        q_full.append(S[ok])
-        if without is not None and len(S) and vis[i] >= config.min_view_visibility and without.are_valid(S).any():
-            n_without += 1
-    return _Views(poses, vis, q_full, n_without)
-
-
 def _monotonic(kin, path: np.ndarray, target: np.ndarray, step: float = 0.02) -> bool:
     """True if the camera's distance to `target` never grows (by > 5 mm) along the path."""
     qs = [path[0]]
@@ -265,13 +202,13 @@ def _certify(scene: SceneSpec, config: CertifyConfig, world: World, t0: float) -
     if not grasps:
         return done(CertFailure.NO_GRASP)
     without = oracle.ground_truth_checker(scene, base_obstacles=False, margin=config.margin) if obstacles else None
-    views = _views(world, config, rng, ik, full, without)
+    views = search_views(world, config, rng, ik, full, without)
     reach = np.array([len(q) > 0 for q in views.q_full])
     good = reach & (views.vis >= config.min_view_visibility)
     r40, g40 = reach[:config.n_views], good[:config.n_views]  # the uniform sample
     rec.update(n_valid_views=int(r40.sum()),
                view_visibility_fraction=float(g40.sum() / r40.sum()) if r40.any() else 0.0,
-               best_view_visibility=_best_exact(world, views, reach))
+               best_view_visibility=best_exact_visibility(world, views, reach))
     if obstacles:
         rec["views_removed_by_obstacles"] = 1.0 - good.sum() / views.n_good_without if views.n_good_without else 0.0
     lap("views")
@@ -331,14 +268,6 @@ def _certify(scene: SceneSpec, config: CertifyConfig, world: World, t0: float) -
     lap("physics")
     world.set_q(home)
     return done(CertFailure.LIFT_FAILED, grasp_approach_deg=grasps[0].approach_deg)
-
-
-def _best_exact(world: World, views: _Views, reach: np.ndarray) -> float:
-    """Exact visibility of the reachable sampled pose with the highest estimate (0 if none)."""
-    if not reach.any():
-        return 0.0
-    i = int(np.flatnonzero(reach)[np.argmax(views.vis[reach])])
-    return float(world.visibility_from(views.poses[i], with_robot=False))
 
 
 def _yaw_deg(g: GroundTruthGrasp) -> float:
