@@ -10,7 +10,7 @@ from compass_manip.cli import main
 
 KEYS = {"level", "index", "seed", "certified", "start_visibility", "best_fixed_view_visibility", "fv_solvable",
         "view_visibility_fraction", "free_config_fraction", "views_removed_by_obstacles",
-        "grasps_removed_by_obstacles", "grasp_approach_deg", "n_objects", "n_distractors", "attempts"}
+        "grasps_removed_by_obstacles", "grasp_approach_deg", "grasp_yaw_deg", "n_objects", "n_distractors", "attempts"}
 
 
 def _run(*args):
@@ -19,23 +19,33 @@ def _run(*args):
                           timeout=300)
 
 
-def test_json_output(capsys):
+def test_json_output_and_the_cache_it_fills(capsys, tmp_path, monkeypatch):
+    monkeypatch.setenv("COMPASS_CACHE_DIR", str(tmp_path))
     assert main(["scenes", "2", "--count", "1", "--seed", "4", "--json"]) == 0
     rows = json.loads(capsys.readouterr().out)
     assert len(rows) == 1 and KEYS <= set(rows[0])
     r = rows[0]
     assert r["index"] == 0 and r["certified"] and r["level"] == 2 and r["seed"] == 4
     assert r["n_objects"] >= 8 and r["n_distractors"] >= 2 and 0.0 <= r["grasp_approach_deg"] <= 90.0
-    assert len(r["rejections"]) == r["attempts"] - 1
+    assert len(r["rejections"]) == r["attempts"] - 1 and abs(r["grasp_yaw_deg"]) <= 55.0
+    # the command certifies afresh (it measures the time) and leaves the entry trials read
+    from compass_manip.sim import scene_cache
+    from compass_manip.sim.certify import CertifyConfig, certified_scene
+    entry = scene_cache.entry_path(2, 0, 4, CertifyConfig())
+    assert os.path.exists(entry)
+    cached = certified_scene(2, 0, 4)
+    assert list(cached.scene.seed) == r["sub_seed"] and cached.attempts == r["attempts"]
 
 
-def test_table_files_and_contact_sheet(tmp_path, capsys):
+def test_table_files_and_contact_sheet(tmp_path, capsys, monkeypatch):
+    monkeypatch.setenv("COMPASS_CACHE_DIR", str(tmp_path / "cache"))
     assert main(["scenes", "1", "--count", "1", "--seed", "3", "--out", str(tmp_path)]) == 0
     out = capsys.readouterr().out
-    for column in ("start", "fv_best", "fv_ok", "view_vis", "free_cfg", "v_rm", "g_rm", "appr°", "obj", "dis"):
+    for column in ("start", "fv_best", "fv_ok", "view_vis", "free_cfg", "v_rm", "g_rm", "appr°", "yaw°", "obj", "dis",
+                   "time_s_p90"):
         assert column in out
     assert "fv_solvable" in out  # the per-level summary
-    names = sorted(os.listdir(tmp_path))
+    names = sorted(n for n in os.listdir(tmp_path) if n != "cache")
     assert names == ["level1_000.json", "level1_000_overview.png", "level1_000_start_camera.png",
                      "level1_contact_sheet.png"]
     record = json.loads((tmp_path / "level1_000.json").read_text())

@@ -43,6 +43,17 @@ def test_constructed_scene_is_certified_with_its_measures(base):
     assert c.fv_solvable and c.best_fixed_view_visibility >= 0.3  # nothing hides it from outside
     assert c.best_view_visibility >= 0.3 and c.view_visibility_fraction > 0
     assert c.grasp_approach_deg is not None and 0.0 <= c.grasp_approach_deg <= 90.0
+    world = World(scene)
+    try:
+        from compass_manip.robot.kinematics import PandaKinematics
+        kin = PandaKinematics(world.robot)
+        p_pre, p_grasp = (kin.T_world_tcp(np.array(c.path[k]))[:3, 3] for k in c.path_marks[1:3])
+        view = world.visibility_from(kin.T_world_cam(np.array(c.path[c.path_marks[0]])), with_robot=False)
+    finally:
+        world.close()
+    d = p_grasp - p_pre  # the yaw is the certified grasp's: its TCP moves that way from pre-grasp to grasp
+    assert view >= 0.3  # the certified view, exactly
+    assert abs(np.degrees(np.arctan2(d[1], d[0])) - c.grasp_yaw_deg) < 2.0 and abs(c.grasp_yaw_deg) <= 55.0
     assert c.lift_height >= 0.03
     assert c.n_colour_distractors == 1 and c.n_shape_distractors == 1 and c.n_objects == 3
     assert len(c.path) >= 4 and len(c.path_marks) == 4 and c.path_marks[-1] == len(c.path) - 1
@@ -139,3 +150,44 @@ def test_bad_arguments():
         certified_scene(1, -1)
     with pytest.raises(CompassInputError, match="seed -3"):
         certified_scene(1, 0, -3)
+
+
+def test_reference_set_holds_the_grid_and_every_fv_baseline_pose_outside_the_opening():
+    from compass_manip.exploration.fixed_views import FixedViewsConfig, fixed_view_poses
+    from compass_manip.sim.fixed_views import grid_views, reference_fixed_views
+
+    task = _scene().task()
+    ref = reference_fixed_views(task)
+    fv = fixed_view_poses(task, FixedViewsConfig())
+    assert len(ref) == 9 + len(fv) and len(fv) >= 9
+    for T in list(grid_views(task.space)) + list(fv):  # the baseline's own views are all in the set
+        assert any(np.allclose(T, R) for R in ref)
+    x_opening = task.space.opening_min[0]
+    assert all(R[0, 3] < x_opening - 0.1 for R in ref)  # every eye outside the opening plane
+
+
+def test_coarse_view_visibility_is_refined_exactly_where_it_decides(base):
+    scene, coarse = base  # the default: coarse rays (view_stride 3), refined near and above the threshold
+    exact = certify(scene, CertifyConfig(view_stride=1))
+    assert coarse.certified and exact.certified
+    assert coarse.best_view_visibility == exact.best_view_visibility  # the best pose was refined
+    assert coarse.view_visibility_fraction == exact.view_visibility_fraction
+    assert coarse.path == exact.path  # the same good views, the same goals, the same plan
+    # pose by pose: exact wherever the value can decide, within the margin elsewhere
+    from compass_manip.sim import oracle
+    from compass_manip.sim.view_search import search_views
+
+    world = World(scene)
+    try:
+        ik, full = oracle.robot_ik(world.robot), oracle.ground_truth_checker(scene)
+        cfg = CertifyConfig()
+        v_c = search_views(world, cfg, np.random.default_rng(5), ik, full, None).vis
+        v_e = search_views(world, CertifyConfig(view_stride=1), np.random.default_rng(5), ik, full, None).vis
+    finally:
+        world.close()
+    near = np.abs(v_c - cfg.min_view_visibility) < cfg.view_refine_margin
+    assert np.array_equal(v_c[near], v_e[near])  # refined: exact
+    assert np.all(np.abs(v_c - v_e) < cfg.view_refine_margin)
+    thr = cfg.min_view_visibility
+    assert np.array_equal(v_c >= thr, v_e >= thr)  # every pose on the same side of the threshold
+    assert (~near).sum() > len(v_c) // 2  # and most poses never needed the exact rays

@@ -21,6 +21,7 @@ COLUMNS = (
     ("fv_solvable", "fv_ok", "{:>5}"), ("view_visibility_fraction", "view_vis", "{:>8.2f}"),
     ("free_config_fraction", "free_cfg", "{:>8.2f}"), ("views_removed_by_obstacles", "v_rm", "{:>5.2f}"),
     ("grasps_removed_by_obstacles", "g_rm", "{:>5.2f}"), ("grasp_approach_deg", "appr°", "{:>5.0f}"),
+    ("grasp_yaw_deg", "yaw°", "{:>5.0f}"),
     ("n_objects", "obj", "{:>3}"), ("n_distractors", "dis", "{:>3}"), ("attempts", "tries", "{:>5}"),
     ("time_s", "time_s", "{:>6.2f}"),
 )
@@ -75,7 +76,7 @@ def run(args) -> int:
     jobs = [(lv, i) for lv in levels for i in range(args.count)]
     for lv, i in tqdm(jobs, desc="certifying scenes", unit="scene", file=sys.stderr, disable=None):
         t0 = time.perf_counter()
-        cs = certified_scene(lv, i, args.seed, cache=False)  # measures certification time
+        cs = certified_scene(lv, i, args.seed, refresh=True)  # measures certification time, fills the cache
         c = cs.certificate
         rows.append({
             "level": lv, "index": i, "seed": args.seed, "sub_seed": list(cs.scene.seed),
@@ -85,7 +86,7 @@ def run(args) -> int:
             "free_config_fraction": round(c.free_config_fraction, 4),
             "views_removed_by_obstacles": round(c.views_removed_by_obstacles, 4),
             "grasps_removed_by_obstacles": round(c.grasps_removed_by_obstacles, 4),
-            "grasp_approach_deg": c.grasp_approach_deg, "lift_height": round(c.lift_height, 4),
+            "grasp_approach_deg": c.grasp_approach_deg, "grasp_yaw_deg": c.grasp_yaw_deg, "lift_height": round(c.lift_height, 4),
             "n_objects": c.n_objects, "n_distractors": c.n_colour_distractors + c.n_shape_distractors,
             "n_valid_views": c.n_valid_views, "attempts": cs.attempts, "rejections": list(cs.rejections),
             "time_s": round(time.perf_counter() - t0, 3),
@@ -160,11 +161,14 @@ def print_summary(rows: list[dict]) -> None:
     keys = ("start_visibility", "best_fixed_view_visibility", "view_visibility_fraction", "free_config_fraction",
             "views_removed_by_obstacles", "grasps_removed_by_obstacles", "n_objects")
     print(f"{'level':>5} {'scenes':>6} {'fv_solvable':>11} " + " ".join(f"{k[:14]:>14}" for k in keys)
-          + f" {'appr_deg_med':>12} {'time_s_med':>10}")
+          + f" {'appr_deg_med':>12} {'|yaw|_deg_med':>13} {'time_s_med':>10} {'time_s_p90':>10}")
     for lv in sorted({r["level"] for r in rows}):
         rs = [r for r in rows if r["level"] == lv]
         means = [np.mean([r[k] for r in rs]) for k in keys]
         appr = [r["grasp_approach_deg"] for r in rs if r["grasp_approach_deg"] is not None]
+        yaw = [abs(r["grasp_yaw_deg"]) for r in rs if r["grasp_yaw_deg"] is not None]
+        times = [r["time_s"] for r in rs]
         print(f"{lv:>5} {len(rs):>6} {sum(r['fv_solvable'] for r in rs) / len(rs):>11.2f} "
               + " ".join(f"{m:>14.3f}" for m in means)
-              + f" {np.median(appr) if appr else float('nan'):>12.0f} {np.median([r['time_s'] for r in rs]):>10.2f}")
+              + f" {np.median(appr) if appr else float('nan'):>12.0f} {np.median(yaw) if yaw else float('nan'):>13.0f}"
+              + f" {np.median(times):>10.2f} {np.percentile(times, 90):>10.2f}")

@@ -41,7 +41,7 @@ def start_visibility(world: World) -> float:
 def fixed_view_visibilities(world: World) -> list[float]:
     """Visible fraction of the target from each pose of the reference fixed-view set
     (`fixed_views.reference_fixed_views` of the scene's Task), with only the scene in the way."""
-    return [world.visibility_from(T, with_robot=False) for T in reference_fixed_views(world.scene.task().space)]
+    return [world.visibility_from(T, with_robot=False) for T in reference_fixed_views(world.scene.task())]
 
 
 # ------------------------------------------------- (2) ground-truth collision checking
