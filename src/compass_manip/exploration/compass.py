@@ -17,6 +17,7 @@ from ..robot.model import RobotConfig
 from ..task import Task
 from ..types import Observation
 from .base import Decision, Phase, StopReason
+from .escape import EscapeConfig, escape_path
 from .mue_rrt import TreeConfig, UtilityWeights, grow_tree, score_tree, validated_path
 from .nfa import NFAConfig, nfa_step, safe_box_map
 from .world_model import WorldModel, WorldModelConfig
@@ -31,7 +32,8 @@ class CompassConfig:
     again after it, nodes are rescored with the gain of all unknown voxels when the
     confined space offers none from the tree: seeing more of the surroundings frees space
     to move in); prior_inset [m];
-    hint_memory: partial-match points kept (most recent)."""
+    hint_memory: partial-match points kept (most recent); escape: the short motion out of a
+    configuration a new frame made invalid on the map (`escape.py`)."""
 
     world: WorldModelConfig = field(default_factory=WorldModelConfig)
     nfa: NFAConfig = field(default_factory=NFAConfig)
@@ -42,6 +44,7 @@ class CompassConfig:
     retry_iterations_factor: int = 3
     prior_inset: float = 0.06
     hint_memory: int = 20
+    escape: EscapeConfig = field(default_factory=EscapeConfig)
 
 
 def task_priors(task: Task, inset: float) -> np.ndarray:
@@ -107,6 +110,10 @@ class CompassMethod:
     # ---------------------------------------------------------------- decisions
     def decide(self) -> Decision:
         t0 = time.perf_counter()
+        if not self.world.checker.is_valid(self.world.q):
+            path = escape_path(self.world.checker, self.world.q, self.config.escape, self.rng)
+            if path is not None:
+                return _timed(Decision(path, None, self.phase, 1, 1, stats={"escape": 1}), t0)
         if self.phase is Phase.NFA:
             d = self._nfa()
             if d is not None:
