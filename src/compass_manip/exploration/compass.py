@@ -86,6 +86,7 @@ class CompassMethod:
         self.phase = Phase.NFA if config.nfa.enabled and config.nfa.max_views > 0 else Phase.EXPLORE
         self._scratch = None
         self._gain_map = None
+        self._checker_ms = 0.0
 
     # ---------------------------------------------------------------- inputs
     @property
@@ -110,6 +111,8 @@ class CompassMethod:
     # ---------------------------------------------------------------- decisions
     def decide(self) -> Decision:
         t0 = time.perf_counter()
+        self.world.checker  # rebuild the distance field / validity checker on the new map
+        self._checker_ms = 1000 * (time.perf_counter() - t0)
         if not self.world.checker.is_valid(self.world.q):
             path = escape_path(self.world.checker, self.world.q, self.config.escape, self.rng)
             if path is not None:
@@ -119,7 +122,20 @@ class CompassMethod:
             if d is not None:
                 return _timed(d, t0)
             self.phase = Phase.EXPLORE
-        return _timed(self._explore(), t0)
+        d = self._explore()
+        if d.stop is not None and self.config.nfa.enabled:
+            d = self._rescan(d)
+        return _timed(d, t0)
+
+    def _rescan(self, stuck: Decision) -> Decision:
+        """No view worth going to: one more near-field step at the current body posture
+        (its views of unknown Omega_safe free space to move in), else the stop."""
+        path, gain, att, ok, self._scratch = nfa_step(self.world, self.world.q, np.asarray(self.task.robot_base_pos),
+                                                      self.config.nfa, self.K, self.rng, self._scratch)
+        att, ok = att + stuck.plans_attempted, ok + stuck.plans_succeeded
+        if path is None:
+            return Decision(None, stuck.stop, Phase.EXPLORE, att, ok, stats={**stuck.stats, "rescan_gain": gain})
+        return Decision(path, None, Phase.EXPLORE, att, ok, stats={**stuck.stats, "rescan_gain": gain})
 
     def _nfa(self) -> Decision | None:
         config = self.config.nfa
@@ -134,8 +150,6 @@ class CompassMethod:
 
     def _explore(self) -> Decision:
         config = self.config
-        t0 = time.perf_counter()
-        self.world.checker  # rebuild the distance field / validity checker on the new map
         t1 = time.perf_counter()
         frontiers = self.world.frontiers
         points = self.points_of_interest
@@ -162,7 +176,7 @@ class CompassMethod:
                     gain_scope = "all"
                     break
         stats = {"tree_nodes": int(scored.tree.count), "frontiers": len(frontiers), "gain_scope": gain_scope,
-                 "checker_ms": 1000 * (t1 - t0), "nbv_ms": 1000 * (time.perf_counter() - t1)}
+                 "checker_ms": self._checker_ms, "nbv_ms": 1000 * (time.perf_counter() - t1)}
         if not np.isfinite(scored.U).any():
             stop = StopReason.EXPLORED if not frontiers else StopReason.NO_REACHABLE_VIEW
             return Decision(None, stop, Phase.EXPLORE, stats=stats)

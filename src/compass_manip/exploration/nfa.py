@@ -55,6 +55,7 @@ class NFAConfig:
     edge_resolution: float = 0.005
     min_motion: float = 0.05
     backoff: float = 0.15
+    scan_resolution: float = 0.02
 
     def __post_init__(self) -> None:
         if self.n_candidates < 1 or self.max_views < 0 or self.min_gain < 0:
@@ -117,7 +118,7 @@ def nfa_step(world, q_body: np.ndarray, base_pos: np.ndarray, config: NFAConfig,
     checker = world.checker
     q_now = world.q
     Q = wrist_candidates(q_body, config.n_candidates, rng, config.wrist_range)
-    Q = reachable_candidates(checker, q_now, Q, config.edge_resolution, config.min_motion,
+    Q = reachable_candidates(checker, q_now, Q, config.scan_resolution, config.min_motion,
                              config.backoff)
     if len(Q) == 0:
         return None, 0, 0, 0, scratch
