@@ -118,3 +118,32 @@ def test_tree_costs_equal_the_path_lengths(setup):
                      TreeConfig(iterations=20), np.random.default_rng(5))
     np.testing.assert_allclose(tree_costs(tree.q, tree.parent[: tree.count]),
                                motion_cost([tree.path_to(k) for k in range(tree.count)]), atol=1e-12)
+
+
+def test_unknown_space_stays_unsafe_inside_omega_safe_and_is_free_beyond_it(setup):
+    from compass_manip.exploration.world_model import WorldModelConfig
+
+    m = _method(setup)
+    w, task = m.world, setup[0].task()
+    lo, hi = (np.asarray(b) + np.asarray(task.robot_base_pos) for b in WorldModelConfig().near_base_box)
+    c = w.occ.voxel_centers()
+    inside = np.all((c >= lo) & (c <= hi), axis=-1)
+    assert inside.any() and not w.assumed_free[inside].any()
+    beyond = ~inside & (c[..., 2] > task.floor_z + 0.1) & (c[..., 1] > hi[1] + 0.1)
+    assert beyond.any() and w.assumed_free[beyond].all()
+
+
+def test_a_stuck_exploration_step_falls_back_to_a_near_field_step(setup, monkeypatch):
+    from compass_manip.exploration.base import Decision, StopReason
+
+    m = _method(setup)
+    m.phase = Phase.EXPLORE
+    stuck = Decision(None, StopReason.NO_REACHABLE_VIEW, Phase.EXPLORE, 2, 0, stats={"tree_nodes": 1})
+    monkeypatch.setattr(m, "_explore", lambda: stuck)
+    d = m.decide()
+    assert d.stop is None and d.path is not None and d.stats["rescan_gain"] >= NFAConfig().min_gain
+    assert d.plans_attempted >= 3 and d.plans_succeeded == 1
+    assert np.allclose(d.path[0], m.world.q) and m.world.checker.path_valid(d.path, 0.005)
+    off = _method(setup, CompassConfig(nfa=NFAConfig(enabled=False)))
+    monkeypatch.setattr(off, "_explore", lambda: stuck)
+    assert off.decide().stop is StopReason.NO_REACHABLE_VIEW
