@@ -131,8 +131,16 @@ def nfa_step(world, q_body: np.ndarray, base_pos: np.ndarray, config: NFAConfig,
     for i in order[: config.reach_tries]:
         if gains[i] < config.min_gain:
             break
+        q_goal = Q[i]
+        if not checker.edge_valid(q_now, q_goal, config.edge_resolution):
+            # invalid between two scan steps: the candidate is pulled back at the fine step
+            fine = reachable_candidates(checker, q_now, q_goal[None], config.edge_resolution, config.min_motion,
+                                        config.backoff)
+            if len(fine) == 0:
+                continue
+            q_goal = fine[0]
         attempted += 1
-        if checker.edge_valid(q_now, Q[i], config.edge_resolution):
+        if checker.edge_valid(q_now, q_goal, config.edge_resolution):
             succeeded += 1
-            return np.stack([q_now, Q[i]]), int(gains[i]), attempted, succeeded, scratch
+            return np.stack([q_now, q_goal]), int(gains[i]), attempted, succeeded, scratch
     return None, int(gains[order[0]]), attempted, succeeded, scratch
