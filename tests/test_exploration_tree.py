@@ -147,3 +147,22 @@ def test_a_stuck_exploration_step_falls_back_to_a_near_field_step(setup, monkeyp
     off = _method(setup, CompassConfig(nfa=NFAConfig(enabled=False)))
     monkeypatch.setattr(off, "_explore", lambda: stuck)
     assert off.decide().stop is StopReason.NO_REACHABLE_VIEW
+
+
+def test_with_no_view_and_no_near_field_gain_the_method_backtracks_along_its_last_path(setup, monkeypatch):
+    from compass_manip.exploration import compass as compass_module
+    from compass_manip.exploration.base import Decision, StopReason
+
+    m = _method(setup)
+    first = m.decide()  # an NFA step from the start
+    m.executed(first.path)
+    assert np.allclose(m.world.q, first.path[-1]) and len(m.history) == 1
+    m.phase = Phase.EXPLORE
+    monkeypatch.setattr(m, "_explore", lambda: Decision(None, StopReason.NO_REACHABLE_VIEW, Phase.EXPLORE))
+    monkeypatch.setattr(compass_module, "nfa_step", lambda *a, **k: (None, 0, 0, 0, None))
+    d = m.decide()
+    assert d.stop is None and d.stats["backtrack"] == 1 and (d.plans_attempted, d.plans_succeeded) == (1, 1)
+    np.testing.assert_allclose(d.path[0], first.path[-1])
+    np.testing.assert_allclose(d.path[-1], first.path[0])
+    m.executed(d.path)  # the way back is not itself a path to backtrack along
+    assert m.history == [] and m.decide().stop is StopReason.NO_REACHABLE_VIEW

@@ -87,6 +87,8 @@ class CompassMethod:
         self._scratch = None
         self._gain_map = None
         self._checker_ms = 0.0
+        self.history: list[np.ndarray] = []  # executed paths, for backtracking
+        self._backtracking = False
 
     # ---------------------------------------------------------------- inputs
     @property
@@ -103,6 +105,10 @@ class CompassMethod:
 
     def executed(self, path: np.ndarray) -> None:
         self.world.add_swept(path)
+        if self._backtracking:
+            self._backtracking = False
+        else:
+            self.history.append(np.asarray(path, float).copy())
 
     @property
     def points_of_interest(self) -> np.ndarray:
@@ -129,13 +135,24 @@ class CompassMethod:
 
     def _rescan(self, stuck: Decision) -> Decision:
         """No view worth going to: one more near-field step at the current body posture
-        (its views of unknown Omega_safe free space to move in), else the stop."""
+        (its views of unknown Omega_safe free space to move in), else back along the last
+        executed path (backtracking), else the stop."""
         path, gain, att, ok, self._scratch = nfa_step(self.world, self.world.q, np.asarray(self.task.robot_base_pos),
                                                       self.config.nfa, self.K, self.rng, self._scratch)
         att, ok = att + stuck.plans_attempted, ok + stuck.plans_succeeded
+        stats = {**stuck.stats, "rescan_gain": gain}
+        if path is None and self.history:
+            # backtracking: back along the last executed path (swept, so free unless seen
+            # otherwise), to grow the next tree from where there were other views
+            att += 1
+            path = validated_path(self.history.pop()[::-1], self.world.checker, self.config.verify_resolution)
+            if path is not None:
+                ok += 1
+                self._backtracking = True
+                stats["backtrack"] = 1
         if path is None:
-            return Decision(None, stuck.stop, Phase.EXPLORE, att, ok, stats={**stuck.stats, "rescan_gain": gain})
-        return Decision(path, None, Phase.EXPLORE, att, ok, stats={**stuck.stats, "rescan_gain": gain})
+            return Decision(None, stuck.stop, Phase.EXPLORE, att, ok, stats=stats)
+        return Decision(path, None, Phase.EXPLORE, att, ok, stats=stats)
 
     def _nfa(self) -> Decision | None:
         config = self.config.nfa
