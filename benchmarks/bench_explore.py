@@ -63,6 +63,8 @@ def main() -> None:
           if p == "explore"]
     emit_samples("explore.decision_ms", ms, "ms", what="one EXPLORE decision: checker rebuild, frontiers, tree, "
                  "utility, path check", **ctx)
+    emit_samples("explore.nbv_ms", [v for x in everything for v in x.metrics.nbv_ms], "ms",
+                 what="frontiers + tree + utility + path check of one MUE-RRT decision", **ctx)
     emit_samples("trial.wall_s", [x.result.wall_s for x in everything], "s", **ctx)
     sim = sum(x.outcome.t_end for x in everything)
     emit_value("trial.realtime_factor", sim / sum(x.result.wall_s for x in everything), "x",

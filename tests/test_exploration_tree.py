@@ -120,17 +120,22 @@ def test_tree_costs_equal_the_path_lengths(setup):
                                motion_cost([tree.path_to(k) for k in range(tree.count)]), atol=1e-12)
 
 
-def test_unknown_space_stays_unsafe_inside_omega_safe_and_is_free_beyond_it(setup):
-    from compass_manip.exploration.world_model import WorldModelConfig
+def test_compass_keeps_unknown_space_unsafe_inside_omega_safe_and_free_beyond_it(setup):
+    from compass_manip.exploration.world_model import WorldModel
 
     m = _method(setup)
     w, task = m.world, setup[0].task()
-    lo, hi = (np.asarray(b) + np.asarray(task.robot_base_pos) for b in WorldModelConfig().near_base_box)
+    nfa = NFAConfig()
+    lo, hi = (np.asarray(b) + np.asarray(task.robot_base_pos) for b in (nfa.safe_box_min, nfa.safe_box_max))
     c = w.occ.voxel_centers()
     inside = np.all((c >= lo) & (c <= hi), axis=-1)
     assert inside.any() and not w.assumed_free[inside].any()
     beyond = ~inside & (c[..., 2] > task.floor_z + 0.1) & (c[..., 1] > hi[1] + 0.1)
     assert beyond.any() and w.assumed_free[beyond].all()
+    # the shared world model (the baselines') keeps the paper's rule: free outside the space
+    shared = WorldModel(setup[2], CompassConfig().world, m.robot, task)
+    assert shared.assumed_free[inside & (c[..., 0] < 0.2) & (c[..., 2] > 0.1)].all()
+    assert _method(setup, CompassConfig(near_field_unsafe=False)).world.assumed_free[inside & (c[..., 0] < 0.2)].any()
 
 
 def test_a_stuck_exploration_step_falls_back_to_a_near_field_step(setup, monkeypatch):

@@ -8,7 +8,7 @@ partial matches exist they replace the Task priors (they are the stronger eviden
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -33,7 +33,10 @@ class CompassConfig:
     confined space offers none from the tree: seeing more of the surroundings frees space
     to move in); prior_inset [m];
     hint_memory: partial-match points kept (most recent); escape: the short motion out of a
-    configuration a new frame made invalid on the map (`escape.py`)."""
+    configuration a new frame made invalid on the map (`escape.py`); near_field_unsafe:
+    unknown space inside Omega_safe (the NFA's box around the base) stays unsafe for this
+    method's motions until seen (`WorldModelConfig.near_base_box`; the shared default,
+    which the baselines keep, lets unknown space outside the confined space count as free)."""
 
     world: WorldModelConfig = field(default_factory=WorldModelConfig)
     nfa: NFAConfig = field(default_factory=NFAConfig)
@@ -45,6 +48,15 @@ class CompassConfig:
     prior_inset: float = 0.06
     hint_memory: int = 20
     escape: EscapeConfig = field(default_factory=EscapeConfig)
+    near_field_unsafe: bool = True
+
+
+def near_field_world(config: CompassConfig) -> WorldModelConfig:
+    """The world model config COMPASS plans on: the shared one, with unknown space inside
+    Omega_safe unsafe when config.near_field_unsafe (and no box is set already)."""
+    if not config.near_field_unsafe or config.world.near_base_box is not None:
+        return config.world
+    return replace(config.world, near_base_box=(tuple(config.nfa.safe_box_min), tuple(config.nfa.safe_box_max)))
 
 
 def task_priors(task: Task, inset: float) -> np.ndarray:
@@ -75,7 +87,7 @@ class CompassMethod:
                  K: np.ndarray, name: str = "compass", robot: RobotConfig | None = None) -> None:
         self.name, self.task, self.config, self.rng = name, task, config, rng
         self.robot = robot or RobotConfig(base_pos=task.robot_base_pos, base_yaw=task.robot_base_yaw)
-        self.world = WorldModel(q_start, config.world, self.robot, task)
+        self.world = WorldModel(q_start, near_field_world(config), self.robot, task)
         self.ik = PandaIK(self.world.kin)
         self.K = np.asarray(K, float)
         self.q_body = np.asarray(q_start, float).copy()
@@ -215,12 +227,8 @@ class CompassMethod:
 
 
 def _scaled(tree: TreeConfig, factor: int) -> TreeConfig:
-    from dataclasses import replace
-
     return replace(tree, iterations=tree.iterations * factor, capacity=max(tree.capacity, tree.capacity * factor))
 
 
 def _timed(d: Decision, t0: float) -> Decision:
-    from dataclasses import replace
-
     return replace(d, compute_s=time.perf_counter() - t0)

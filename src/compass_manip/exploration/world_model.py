@@ -60,8 +60,7 @@ class WorldModelConfig:
     space_margin: float = 0.06
     floor_margin: float = 0.05
     obstacle_halo: float = 0.08
-    near_base_box: tuple[tuple[float, float, float], tuple[float, float, float]] | None = (
-        (-0.35, -0.6, 0.0), (0.75, 0.6, 1.15))
+    near_base_box: tuple[tuple[float, float, float], tuple[float, float, float]] | None = None
     sweep_step: float = 0.05
     validity: ValidityConfig = field(default_factory=lambda: ValidityConfig(margin=0.005, edge_resolution=0.02))
     frontiers: FrontierConfig = field(default_factory=lambda: FrontierConfig(min_cluster_size=4))
