@@ -72,3 +72,15 @@ def test_escape_leaves_an_invalid_configuration_through_a_short_invalid_stretch(
 def test_escape_config_rejects_a_tolerance_beyond_the_radius():
     with pytest.raises(CompassInputError, match="tolerance 0.3"):
         EscapeConfig(radius=0.2, tolerance=0.3)
+
+
+def test_the_obstacle_halo_equals_scipys_binary_dilation():
+    from scipy import ndimage
+
+    from compass_manip.exploration.world_model import manhattan_dilate
+
+    rng = np.random.default_rng(7)
+    for shape, p, r in (((9, 11, 7), 0.02, 3), ((12, 5, 10), 0.1, 1), ((6, 6, 6), 0.0, 2), ((8, 9, 10), 0.01, 4)):
+        mask = rng.random(shape) < p
+        mask[0, 0, 0] = p > 0  # a source on the border: the dilation must not wrap or leak
+        np.testing.assert_array_equal(manhattan_dilate(mask, r), ndimage.binary_dilation(mask, iterations=r))
