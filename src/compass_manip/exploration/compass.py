@@ -148,7 +148,9 @@ class CompassMethod:
     def _rescan(self, stuck: Decision) -> Decision:
         """No view worth going to: one more near-field step at the current body posture
         (its views of unknown Omega_safe free space to move in), else back along the last
-        executed path (backtracking), else the stop."""
+        executed path (backtracking: the same configurations in reverse, re-checked on the
+        map, replayed as they were when the map now puts them within its margin), else the
+        stop."""
         path, gain, att, ok, self._scratch = nfa_step(self.world, self.world.q, np.asarray(self.task.robot_base_pos),
                                                       self.config.nfa, self.K, self.rng, self._scratch)
         att, ok = att + stuck.plans_attempted, ok + stuck.plans_succeeded
@@ -157,7 +159,14 @@ class CompassMethod:
             # backtracking: back along the last executed path (swept, so free unless seen
             # otherwise), to grow the next tree from where there were other views
             att += 1
-            path = validated_path(self.history.pop()[::-1], self.world.checker, self.config.verify_resolution)
+            back = self.history.pop()[::-1]
+            path = validated_path(back, self.world.checker, self.config.verify_resolution)
+            if path is None:
+                # frames seen on the way put obstacles within the checker's margin of it; the
+                # arm occupied exactly these configurations a moment ago (the executed path
+                # stays on its straight segments) and the scene is static: replay it
+                path = back
+                stats["replay"] = 1
             if path is not None:
                 ok += 1
                 self._backtracking = True

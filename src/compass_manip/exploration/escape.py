@@ -35,6 +35,18 @@ class EscapeConfig:
                                     f"radius {self.radius}")
 
 
+def valid_after_start(checker, path: np.ndarray, tolerance: float, resolution: float) -> bool:
+    """True if every state of the joint path (m, 7) [rad], checked at resolution [rad], is
+    valid except within tolerance [rad] (largest joint change) of its first state."""
+    P = np.asarray(path, float)
+    q, q1 = P[0], P[1]
+    span = float(np.max(np.abs(q1 - q)))
+    s = checker.first_invalid(q1, q, resolution)  # scanned from the far end towards the start
+    if s is not None and (1.0 - s) * span > tolerance:
+        return False
+    return len(P) == 2 or checker.path_valid(P[1:], resolution)
+
+
 def escape_path(checker, q: np.ndarray, config: EscapeConfig, rng: np.random.Generator) -> np.ndarray | None:
     """A path (2, 7) [rad] from q to the nearest sampled valid configuration reachable as
     described in the module docstring, or None."""
@@ -46,7 +58,6 @@ def escape_path(checker, q: np.ndarray, config: EscapeConfig, rng: np.random.Gen
         span = float(np.max(np.abs(qc - q)))
         if span <= config.tolerance:
             continue
-        s = checker.first_invalid(qc, q, config.resolution)  # scanned from the valid end towards q
-        if s is None or (1.0 - s) * span <= config.tolerance:
+        if valid_after_start(checker, np.stack([q, qc]), config.tolerance, config.resolution):
             return np.stack([q, qc])
     return None
