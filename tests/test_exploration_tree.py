@@ -171,3 +171,19 @@ def test_with_no_view_and_no_near_field_gain_the_method_backtracks_along_its_las
     np.testing.assert_allclose(d.path[-1], first.path[0])
     m.executed(d.path)  # the way back is not itself a path to backtrack along
     assert m.history == [] and m.decide().stop is StopReason.NO_REACHABLE_VIEW
+
+
+def test_backtracking_replays_the_last_path_when_the_map_now_rejects_it(setup, monkeypatch):
+    from compass_manip.exploration import compass as compass_module
+    from compass_manip.exploration.base import Decision, StopReason
+
+    m = _method(setup)
+    first = m.decide()
+    m.executed(first.path)
+    m.phase = Phase.EXPLORE
+    monkeypatch.setattr(m, "_explore", lambda: Decision(None, StopReason.NO_REACHABLE_VIEW, Phase.EXPLORE))
+    monkeypatch.setattr(compass_module, "nfa_step", lambda *a, **k: (None, 0, 0, 0, None))
+    monkeypatch.setattr(compass_module, "validated_path", lambda *a, **k: None)  # the map check fails
+    d = m.decide()
+    assert d.stats["replay"] == 1 and (d.plans_attempted, d.plans_succeeded) == (1, 1)
+    np.testing.assert_array_equal(d.path, first.path[::-1])
