@@ -118,3 +118,72 @@ def test_tree_costs_equal_the_path_lengths(setup):
                      TreeConfig(iterations=20), np.random.default_rng(5))
     np.testing.assert_allclose(tree_costs(tree.q, tree.parent[: tree.count]),
                                motion_cost([tree.path_to(k) for k in range(tree.count)]), atol=1e-12)
+
+
+def test_compass_keeps_unknown_space_unsafe_inside_omega_safe_and_free_beyond_it(setup):
+    from compass_manip.exploration.world_model import WorldModel
+
+    m = _method(setup)
+    w, task = m.world, setup[0].task()
+    nfa = NFAConfig()
+    lo, hi = (np.asarray(b) + np.asarray(task.robot_base_pos) for b in (nfa.safe_box_min, nfa.safe_box_max))
+    c = w.occ.voxel_centers()
+    inside = np.all((c >= lo) & (c <= hi), axis=-1)
+    assert inside.any() and not w.assumed_free[inside].any()
+    beyond = ~inside & (c[..., 2] > task.floor_z + 0.1) & (c[..., 1] > hi[1] + 0.1)
+    assert beyond.any() and w.assumed_free[beyond].all()
+    # the shared world model (the baselines') keeps the paper's rule: free outside the space
+    shared = WorldModel(setup[2], CompassConfig().world, m.robot, task)
+    assert shared.assumed_free[inside & (c[..., 0] < 0.2) & (c[..., 2] > 0.1)].all()
+    assert _method(setup, CompassConfig(near_field_unsafe=False)).world.assumed_free[inside & (c[..., 0] < 0.2)].any()
+
+
+def test_a_stuck_exploration_step_falls_back_to_a_near_field_step(setup, monkeypatch):
+    from compass_manip.exploration.base import Decision, StopReason
+
+    m = _method(setup)
+    m.phase = Phase.EXPLORE
+    stuck = Decision(None, StopReason.NO_REACHABLE_VIEW, Phase.EXPLORE, 2, 0, stats={"tree_nodes": 1})
+    monkeypatch.setattr(m, "_explore", lambda: stuck)
+    d = m.decide()
+    assert d.stop is None and d.path is not None and d.stats["rescan_gain"] >= NFAConfig().min_gain
+    assert d.plans_attempted >= 3 and d.plans_succeeded == 1
+    assert np.allclose(d.path[0], m.world.q) and m.world.checker.path_valid(d.path, 0.005)
+    off = _method(setup, CompassConfig(nfa=NFAConfig(enabled=False)))
+    monkeypatch.setattr(off, "_explore", lambda: stuck)
+    assert off.decide().stop is StopReason.NO_REACHABLE_VIEW
+
+
+def test_with_no_view_and_no_near_field_gain_the_method_backtracks_along_its_last_path(setup, monkeypatch):
+    from compass_manip.exploration import compass as compass_module
+    from compass_manip.exploration.base import Decision, StopReason
+
+    m = _method(setup)
+    first = m.decide()  # an NFA step from the start
+    m.executed(first.path)
+    assert np.allclose(m.world.q, first.path[-1]) and len(m.history) == 1
+    m.phase = Phase.EXPLORE
+    monkeypatch.setattr(m, "_explore", lambda: Decision(None, StopReason.NO_REACHABLE_VIEW, Phase.EXPLORE))
+    monkeypatch.setattr(compass_module, "nfa_step", lambda *a, **k: (None, 0, 0, 0, None))
+    d = m.decide()
+    assert d.stop is None and d.stats["backtrack"] == 1 and (d.plans_attempted, d.plans_succeeded) == (1, 1)
+    np.testing.assert_allclose(d.path[0], first.path[-1])
+    np.testing.assert_allclose(d.path[-1], first.path[0])
+    m.executed(d.path)  # the way back is not itself a path to backtrack along
+    assert m.history == [] and m.decide().stop is StopReason.NO_REACHABLE_VIEW
+
+
+def test_backtracking_replays_the_last_path_when_the_map_now_rejects_it(setup, monkeypatch):
+    from compass_manip.exploration import compass as compass_module
+    from compass_manip.exploration.base import Decision, StopReason
+
+    m = _method(setup)
+    first = m.decide()
+    m.executed(first.path)
+    m.phase = Phase.EXPLORE
+    monkeypatch.setattr(m, "_explore", lambda: Decision(None, StopReason.NO_REACHABLE_VIEW, Phase.EXPLORE))
+    monkeypatch.setattr(compass_module, "nfa_step", lambda *a, **k: (None, 0, 0, 0, None))
+    monkeypatch.setattr(compass_module, "validated_path", lambda *a, **k: None)  # the map check fails
+    d = m.decide()
+    assert d.stats["replay"] == 1 and (d.plans_attempted, d.plans_succeeded) == (1, 1)
+    np.testing.assert_array_equal(d.path, first.path[::-1])

@@ -8,7 +8,7 @@ partial matches exist they replace the Task priors (they are the stronger eviden
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -17,6 +17,7 @@ from ..robot.model import RobotConfig
 from ..task import Task
 from ..types import Observation
 from .base import Decision, Phase, StopReason
+from .escape import EscapeConfig, escape_path
 from .mue_rrt import TreeConfig, UtilityWeights, grow_tree, score_tree, validated_path
 from .nfa import NFAConfig, nfa_step, safe_box_map
 from .world_model import WorldModel, WorldModelConfig
@@ -31,7 +32,11 @@ class CompassConfig:
     again after it, nodes are rescored with the gain of all unknown voxels when the
     confined space offers none from the tree: seeing more of the surroundings frees space
     to move in); prior_inset [m];
-    hint_memory: partial-match points kept (most recent)."""
+    hint_memory: partial-match points kept (most recent); escape: the short motion out of a
+    configuration a new frame made invalid on the map (`escape.py`); near_field_unsafe:
+    unknown space inside Omega_safe (the NFA's box around the base) stays unsafe for this
+    method's motions until seen (`WorldModelConfig.near_base_box`; the shared default,
+    which the baselines keep, lets unknown space outside the confined space count as free)."""
 
     world: WorldModelConfig = field(default_factory=WorldModelConfig)
     nfa: NFAConfig = field(default_factory=NFAConfig)
@@ -42,6 +47,16 @@ class CompassConfig:
     retry_iterations_factor: int = 3
     prior_inset: float = 0.06
     hint_memory: int = 20
+    escape: EscapeConfig = field(default_factory=EscapeConfig)
+    near_field_unsafe: bool = True
+
+
+def near_field_world(config: CompassConfig) -> WorldModelConfig:
+    """The world model config COMPASS plans on: the shared one, with unknown space inside
+    Omega_safe unsafe when config.near_field_unsafe (and no box is set already)."""
+    if not config.near_field_unsafe or config.world.near_base_box is not None:
+        return config.world
+    return replace(config.world, near_base_box=(tuple(config.nfa.safe_box_min), tuple(config.nfa.safe_box_max)))
 
 
 def task_priors(task: Task, inset: float) -> np.ndarray:
@@ -72,7 +87,7 @@ class CompassMethod:
                  K: np.ndarray, name: str = "compass", robot: RobotConfig | None = None) -> None:
         self.name, self.task, self.config, self.rng = name, task, config, rng
         self.robot = robot or RobotConfig(base_pos=task.robot_base_pos, base_yaw=task.robot_base_yaw)
-        self.world = WorldModel(q_start, config.world, self.robot, task)
+        self.world = WorldModel(q_start, near_field_world(config), self.robot, task)
         self.ik = PandaIK(self.world.kin)
         self.K = np.asarray(K, float)
         self.q_body = np.asarray(q_start, float).copy()
@@ -83,6 +98,9 @@ class CompassMethod:
         self.phase = Phase.NFA if config.nfa.enabled and config.nfa.max_views > 0 else Phase.EXPLORE
         self._scratch = None
         self._gain_map = None
+        self._checker_ms = 0.0
+        self.history: list[np.ndarray] = []  # executed paths, for backtracking
+        self._backtracking = False
 
     # ---------------------------------------------------------------- inputs
     @property
@@ -99,6 +117,10 @@ class CompassMethod:
 
     def executed(self, path: np.ndarray) -> None:
         self.world.add_swept(path)
+        if self._backtracking:
+            self._backtracking = False
+        else:
+            self.history.append(np.asarray(path, float).copy())
 
     @property
     def points_of_interest(self) -> np.ndarray:
@@ -107,12 +129,51 @@ class CompassMethod:
     # ---------------------------------------------------------------- decisions
     def decide(self) -> Decision:
         t0 = time.perf_counter()
+        self.world.checker  # rebuild the distance field / validity checker on the new map
+        self._checker_ms = 1000 * (time.perf_counter() - t0)
+        if not self.world.checker.is_valid(self.world.q):
+            path = escape_path(self.world.checker, self.world.q, self.config.escape, self.rng)
+            if path is not None:
+                return _timed(Decision(path, None, self.phase, 1, 1, stats={"escape": 1}), t0)
         if self.phase is Phase.NFA:
             d = self._nfa()
             if d is not None:
                 return _timed(d, t0)
             self.phase = Phase.EXPLORE
-        return _timed(self._explore(), t0)
+        d = self._explore()
+        if d.stop is not None and self.config.nfa.enabled:
+            d = self._rescan(d)
+        return _timed(d, t0)
+
+    def _rescan(self, stuck: Decision) -> Decision:
+        """No view worth going to: one more near-field step at the current body posture
+        (its views of unknown Omega_safe free space to move in), else back along the last
+        executed path (backtracking: the same configurations in reverse, re-checked on the
+        map, replayed as they were when the map now puts them within its margin), else the
+        stop."""
+        path, gain, att, ok, self._scratch = nfa_step(self.world, self.world.q, np.asarray(self.task.robot_base_pos),
+                                                      self.config.nfa, self.K, self.rng, self._scratch)
+        att, ok = att + stuck.plans_attempted, ok + stuck.plans_succeeded
+        stats = {**stuck.stats, "rescan_gain": gain}
+        if path is None and self.history:
+            # backtracking: back along the last executed path (swept, so free unless seen
+            # otherwise), to grow the next tree from where there were other views
+            att += 1
+            back = self.history.pop()[::-1]
+            path = validated_path(back, self.world.checker, self.config.verify_resolution)
+            if path is None:
+                # frames seen on the way put obstacles within the checker's margin of it; the
+                # arm occupied exactly these configurations a moment ago (the executed path
+                # stays on its straight segments) and the scene is static: replay it
+                path = back
+                stats["replay"] = 1
+            if path is not None:
+                ok += 1
+                self._backtracking = True
+                stats["backtrack"] = 1
+        if path is None:
+            return Decision(None, stuck.stop, Phase.EXPLORE, att, ok, stats=stats)
+        return Decision(path, None, Phase.EXPLORE, att, ok, stats=stats)
 
     def _nfa(self) -> Decision | None:
         config = self.config.nfa
@@ -127,8 +188,6 @@ class CompassMethod:
 
     def _explore(self) -> Decision:
         config = self.config
-        t0 = time.perf_counter()
-        self.world.checker  # rebuild the distance field / validity checker on the new map
         t1 = time.perf_counter()
         frontiers = self.world.frontiers
         points = self.points_of_interest
@@ -155,7 +214,7 @@ class CompassMethod:
                     gain_scope = "all"
                     break
         stats = {"tree_nodes": int(scored.tree.count), "frontiers": len(frontiers), "gain_scope": gain_scope,
-                 "checker_ms": 1000 * (t1 - t0), "nbv_ms": 1000 * (time.perf_counter() - t1)}
+                 "checker_ms": self._checker_ms, "nbv_ms": 1000 * (time.perf_counter() - t1)}
         if not np.isfinite(scored.U).any():
             stop = StopReason.EXPLORED if not frontiers else StopReason.NO_REACHABLE_VIEW
             return Decision(None, stop, Phase.EXPLORE, stats=stats, debug=tree_debug(scored))
@@ -187,12 +246,8 @@ def tree_debug(scored, chosen: int | None = None) -> dict:
 
 
 def _scaled(tree: TreeConfig, factor: int) -> TreeConfig:
-    from dataclasses import replace
-
     return replace(tree, iterations=tree.iterations * factor, capacity=max(tree.capacity, tree.capacity * factor))
 
 
 def _timed(d: Decision, t0: float) -> Decision:
-    from dataclasses import replace
-
     return replace(d, compute_s=time.perf_counter() - t0)

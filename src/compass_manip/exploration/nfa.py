@@ -6,6 +6,13 @@ Our variant re-runs the greedy step on the map after each executed view (the pap
 computes all waypoints up front from the initial map and a virtual coverage update): the
 real observations replace the virtual update, and each move is validated on the map as it
 is then, so the wrist only enters space it has seen or occupied.
+
+Candidates are reachable by construction, as MUE-RRT's nodes are: each sampled wrist
+configuration is pulled back along its straight joint segment from the current
+configuration to the last state before the first invalid one (an RRT extend towards the
+sample), and the gain is scored on these reachable candidates. The chosen one is then
+re-checked as the plan (counted for MPSR); a sample behind unseen space no longer becomes
+a committed view whose motion fails.
 """
 from __future__ import annotations
 
@@ -29,7 +36,11 @@ class NFAConfig:
     volume below which the scan ends; max_views per scan; safe_box_min / safe_box_max [m]:
     Omega_safe relative to the robot base; rays (nu, nv) per candidate view; max_range [m]
     of the gain's rays; reach_tries: best candidates whose straight wrist motion is checked
-    per step (at edge_resolution [rad]; a straight joint segment keeps the step deterministic)"""
+    per step (at edge_resolution [rad]; a straight joint segment keeps the step deterministic);
+    min_motion [rad]: reachable candidates that move the wrist less than this are dropped;
+    backoff [rad]: a candidate pulled back stops this far (largest joint change) before the
+    first invalid state, so that it does not rest at the edge of unseen space that may turn
+    out occupied (the arm would then be stuck in a configuration its map calls invalid)"""
 
     enabled: bool = True
     wrist_range: float = 1.2
@@ -42,6 +53,9 @@ class NFAConfig:
     max_range: float = 1.0
     reach_tries: int = 8
     edge_resolution: float = 0.005
+    min_motion: float = 0.05
+    backoff: float = 0.15
+    scan_resolution: float = 0.02
 
     def __post_init__(self) -> None:
         if self.n_candidates < 1 or self.max_views < 0 or self.min_gain < 0:
@@ -60,6 +74,25 @@ def wrist_candidates(q_body: np.ndarray, n: int, rng: np.random.Generator, wrist
     hi = np.minimum(Q_MAX[WRIST], q[WRIST] + wrist_range)
     Q[:, WRIST] = rng.uniform(lo, hi, (n, 3))
     return Q
+
+
+def reachable_candidates(checker, q_now: np.ndarray, Q: np.ndarray, resolution: float, min_motion: float,
+                         backoff: float = 0.0) -> np.ndarray:
+    """Each row of Q (n, 7) [rad] pulled back along the straight segment from q_now to
+    backoff [rad] (largest joint change) before its first invalid state (scanned at
+    resolution [rad]); rows that then move less than min_motion [rad] are dropped."""
+    q_now = np.asarray(q_now, float)
+    out = []
+    for q in np.asarray(Q, float):
+        s = checker.first_invalid(q_now, q, resolution)
+        if s is not None:
+            span = float(np.max(np.abs(q - q_now)))
+            n = max(1, int(np.ceil(span / resolution)))
+            s = max(0.0, s - 1.0 / n - backoff / span)
+            q = q_now + s * (q - q_now)
+        if np.max(np.abs(q - q_now)) >= min_motion:
+            out.append(q)
+    return np.array(out).reshape(-1, 7)
 
 
 def safe_box_map(occ: OccupancyMap, box_min: np.ndarray, box_max: np.ndarray, out: OccupancyMap | None = None
@@ -83,8 +116,10 @@ def nfa_step(world, q_body: np.ndarray, base_pos: np.ndarray, config: NFAConfig,
     scratch map for reuse). None when no valid, reachable candidate gains >= min_gain.
     """
     checker = world.checker
+    q_now = world.q
     Q = wrist_candidates(q_body, config.n_candidates, rng, config.wrist_range)
-    Q = Q[checker.are_valid(Q)]
+    Q = reachable_candidates(checker, q_now, Q, config.scan_resolution, config.min_motion,
+                             config.backoff)
     if len(Q) == 0:
         return None, 0, 0, 0, scratch
     base = np.asarray(base_pos, float)
@@ -93,12 +128,19 @@ def nfa_step(world, q_body: np.ndarray, base_pos: np.ndarray, config: NFAConfig,
     gains = info_gain_batch(scratch, T, K, config.max_range, config.rays)
     order = np.argsort(-gains, kind="stable")
     attempted = succeeded = 0
-    q_now = world.q
     for i in order[: config.reach_tries]:
         if gains[i] < config.min_gain:
             break
+        q_goal = Q[i]
+        if not checker.edge_valid(q_now, q_goal, config.edge_resolution):
+            # invalid between two scan steps: the candidate is pulled back at the fine step
+            fine = reachable_candidates(checker, q_now, q_goal[None], config.edge_resolution, config.min_motion,
+                                        config.backoff)
+            if len(fine) == 0:
+                continue
+            q_goal = fine[0]
         attempted += 1
-        if checker.edge_valid(q_now, Q[i], config.edge_resolution):
+        if checker.edge_valid(q_now, q_goal, config.edge_resolution):
             succeeded += 1
-            return np.stack([q_now, Q[i]]), int(gains[i]), attempted, succeeded, scratch
+            return np.stack([q_now, q_goal]), int(gains[i]), attempted, succeeded, scratch
     return None, int(gains[order[0]]), attempted, succeeded, scratch

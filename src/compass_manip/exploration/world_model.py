@@ -14,7 +14,6 @@ from dataclasses import dataclass, field
 
 import numba as nb
 import numpy as np
-from scipy import ndimage
 
 from ..mapping.distance import DistanceField
 from ..mapping.frontiers import FrontierCluster, FrontierConfig, find_frontiers
@@ -89,6 +88,41 @@ def mark_spheres(mask, grid_min, res, centers, radii):
                         mask[i, j, k] = True
 
 
+@nb.njit(cache=True)
+def manhattan_dilate(mask, r):
+    """Voxels within r 6-connected steps (L1 distance, in voxels) of a True voxel of mask
+    (nx, ny, nz): `scipy.ndimage.binary_dilation(mask, iterations=r)` with its default
+    structure, as a two-pass L1 distance transform per axis (exact for the L1 metric)."""
+    nx, ny, nz = mask.shape
+    big = r + 1
+    d = np.empty((nx, ny, nz), np.int32)
+    for i in range(nx):
+        for j in range(ny):
+            for k in range(nz):
+                d[i, j, k] = 0 if mask[i, j, k] else big
+    for i in range(1, nx):  # each pass keeps the contiguous axis innermost
+        for j in range(ny):
+            for k in range(nz):
+                d[i, j, k] = min(d[i, j, k], d[i - 1, j, k] + 1)
+    for i in range(nx - 2, -1, -1):
+        for j in range(ny):
+            for k in range(nz):
+                d[i, j, k] = min(d[i, j, k], d[i + 1, j, k] + 1)
+    for i in range(nx):
+        for j in range(1, ny):
+            for k in range(nz):
+                d[i, j, k] = min(d[i, j, k], d[i, j - 1, k] + 1)
+        for j in range(ny - 2, -1, -1):
+            for k in range(nz):
+                d[i, j, k] = min(d[i, j, k], d[i, j + 1, k] + 1)
+        for j in range(ny):
+            for k in range(1, nz):
+                d[i, j, k] = min(d[i, j, k], d[i, j, k - 1] + 1)
+            for k in range(nz - 2, -1, -1):
+                d[i, j, k] = min(d[i, j, k], d[i, j, k + 1] + 1)
+    return d <= r
+
+
 def outside_space_mask(occ: OccupancyMap, task, margin: float, floor_margin: float) -> np.ndarray:
     """(nx, ny, nz) bool: voxels outside the confined space's outer box grown by margin [m]
     (extended down to the floor) and higher than floor_margin [m] above the floor."""
@@ -153,7 +187,7 @@ class WorldModel:
             assumed = self.assumed_free
             halo = int(round(self.config.obstacle_halo / self.occ.resolution))
             if halo > 0 and assumed.any():
-                assumed = assumed & ~ndimage.binary_dilation(occupied, iterations=halo)
+                assumed = assumed & ~manhattan_dilate(occupied, halo)
             safe = (self.swept | assumed) & ~occupied  # seen obstacles always count
             field_ = DistanceField.from_map(self.occ, safe_voxels=safe)
             self._checker = self._checker_for(DistanceGrid.from_distance_field(field_))

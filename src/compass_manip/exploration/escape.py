@@ -1,0 +1,63 @@
+"""Leaving a configuration the map has come to call invalid.
+
+The arm rests where its map allowed it to go; a later frame can reveal an obstacle just
+within the checker's conservative margin of where it now stands (e.g. the face of the
+confined space next to the start posture, which the start shell assumed free). No tree
+can then grow from the current configuration and the method would be stuck. The escape
+motion is a short straight joint segment to a nearby valid configuration whose only
+invalid states lie within `tolerance` [rad] of the current one (the part the arm already
+occupies); its remaining states are checked at the fine resolution like any plan.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import CompassInputError
+from ..robot.model import Q_MAX, Q_MIN
+
+
+@dataclass(frozen=True)
+class EscapeConfig:
+    """samples around the current configuration, within +-radius [rad] per joint;
+    tolerance [rad]: the longest stretch next to the current configuration allowed to be
+    invalid; resolution [rad] of the segment check."""
+
+    samples: int = 200
+    radius: float = 0.25
+    tolerance: float = 0.06
+    resolution: float = 0.005
+
+    def __post_init__(self) -> None:
+        if self.samples < 1 or not 0 < self.tolerance < self.radius:
+            raise CompassInputError(f"EscapeConfig needs samples >= 1 and 0 < tolerance {self.tolerance} < "
+                                    f"radius {self.radius}")
+
+
+def valid_after_start(checker, path: np.ndarray, tolerance: float, resolution: float) -> bool:
+    """True if every state of the joint path (m, 7) [rad], checked at resolution [rad], is
+    valid except within tolerance [rad] (largest joint change) of its first state."""
+    P = np.asarray(path, float)
+    q, q1 = P[0], P[1]
+    span = float(np.max(np.abs(q1 - q)))
+    s = checker.first_invalid(q1, q, resolution)  # scanned from the far end towards the start
+    if s is not None and (1.0 - s) * span > tolerance:
+        return False
+    return len(P) == 2 or checker.path_valid(P[1:], resolution)
+
+
+def escape_path(checker, q: np.ndarray, config: EscapeConfig, rng: np.random.Generator) -> np.ndarray | None:
+    """A path (2, 7) [rad] from q to the nearest sampled valid configuration reachable as
+    described in the module docstring, or None."""
+    q = np.asarray(q, float)
+    Q = rng.uniform(np.maximum(Q_MIN, q - config.radius), np.minimum(Q_MAX, q + config.radius),
+                    (config.samples, 7))
+    Q = Q[checker.are_valid(Q)]
+    for qc in Q[np.argsort(np.max(np.abs(Q - q), axis=1), kind="stable")]:
+        span = float(np.max(np.abs(qc - q)))
+        if span <= config.tolerance:
+            continue
+        if valid_after_start(checker, np.stack([q, qc]), config.tolerance, config.resolution):
+            return np.stack([q, qc])
+    return None
