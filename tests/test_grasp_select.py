@@ -50,7 +50,8 @@ def world():
 def test_desired_approach_enters_the_opening_tilted_down(world):
     occ, task, target = world
     n = desired_approach(target, task)
-    assert n[0] > 0.6 and n[2] < -0.6 and abs(n[1]) < 1e-9  # +x into the space, pitched 45 deg down
+    assert abs(n[0] - math.cos(math.radians(20))) < 1e-9 and abs(n[2] + math.sin(math.radians(20))) < 1e-9 \
+        and abs(n[1]) < 1e-9  # +x into the space, pitched 20 deg down
     assert gpq(0.8, True, 0.0) == pytest.approx(0.8) and gpq(0.8, False, 0.0) == 0.0
 
 

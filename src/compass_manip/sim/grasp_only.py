@@ -37,7 +37,10 @@ from .world import World
 class GraspOnlyConfig:
     """n_view_samples camera poses tried for the oracle start; view_distance [m] range from
     the target; min_visibility of the target from the chosen view; home_sweep / view_sweep:
-    wrist sweeps at home and at the view feeding the map; carve_margin [m] added to the
+    wrist sweeps at home and at the view feeding the map; explore_views: up to this many
+    other reachable sampled views (each with explore_path_frames frames on its straight way
+    from home) feed the map too, standing in for the views an exploration of the opening
+    makes before it sees the target (their ways are marked as robot space); carve_margin [m] added to the
     robot's spheres along the way it moved (marked safe in the map)."""
 
     n_view_samples: int = 80
@@ -48,6 +51,8 @@ class GraspOnlyConfig:
     path_frames: int = 6
     near_field_views: int = 16
     near_body_free: bool = True
+    explore_views: int = 12
+    explore_path_frames: int = 2
     carve_margin: float = 0.02
     target: TargetConfig = field(default_factory=TargetConfig)
     select: GraspSelectConfig = field(default_factory=GraspSelectConfig)
@@ -78,9 +83,12 @@ def _straight_free(world: World, q0: np.ndarray, q1: np.ndarray, step: float = 0
     return not any(world.in_collision(q0 + (q1 - q0) * k / n, GRIPPER_MAX_WIDTH) for k in range(n + 1))
 
 
-def oracle_view(world: World, rng: np.random.Generator, config: GraspOnlyConfig) -> tuple[np.ndarray | None, float]:
+def oracle_view(world: World, rng: np.random.Generator, config: GraspOnlyConfig,
+                reached: list | None = None) -> tuple[np.ndarray | None, float]:
     """ORACLE START (ground truth): the best-seeing of sampled reachable, collision-free
-    camera views of the target, in front of the opening and above the target; (q, visibility)."""
+    camera views of the target, in front of the opening and above the target; (q, visibility).
+    reached: if a list, every reachable sampled view (q) is appended to it (the places an
+    exploration of the same opening would have looked from)."""
     scene = world.scene
     lo = np.array(scene.cabinet.interior_min)
     hi = np.array(scene.cabinet.interior_max)
@@ -102,6 +110,8 @@ def oracle_view(world: World, rng: np.random.Generator, config: GraspOnlyConfig)
             if world.in_collision(q, GRIPPER_MAX_WIDTH) or not _straight_free(world, q_home, q):
                 continue
             vis = world.target_visibility(q)
+            if reached is not None:
+                reached.append(q)
             if vis > best_vis:
                 best, best_vis = q, vis
             break
@@ -164,7 +174,8 @@ def run_grasp_only(scene: SceneSpec, config: GraspOnlyConfig | None = None, seed
     world = world or World(scene)
     try:
         q_home = np.asarray(world.robot.q_home)
-        q_view, vis = oracle_view(world, rng, config)
+        reached: list = []
+        q_view, vis = oracle_view(world, rng, config, reached)
         if q_view is None:
             return GraspOnlyResult(None, vis, 0, None, None, None, 0.0)
         t0 = time.perf_counter()
@@ -179,6 +190,13 @@ def run_grasp_only(scene: SceneSpec, config: GraspOnlyConfig | None = None, seed
         for q in near_field_configs(world, rng, config.near_field_views):
             frames.append(world.render(q, rgb=False, seg=False))
             m = max(1, int(np.ceil(np.max(np.abs(q - q_home)) / 0.1)))
+            moved += [q_home + (q - q_home) * k / m for k in range(m + 1)]
+        for q in reached[: config.explore_views]:
+            if np.array_equal(q, q_view):
+                continue
+            frames += [world.render(q_home + (q - q_home) * s, rgb=False, seg=False)
+                       for s in np.linspace(0.0, 1.0, config.explore_path_frames + 2)[1:]]
+            m = max(1, int(np.ceil(np.max(np.abs(q - q_home)) / 0.05)))
             moved += [q_home + (q - q_home) * k / m for k in range(m + 1)]
         n = max(1, int(np.ceil(np.max(np.abs(q_view - q_home)) / 0.05)))
         moved += [q_home + (q_view - q_home) * k / n for k in range(n + 1)]
