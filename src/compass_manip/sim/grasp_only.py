@@ -26,7 +26,7 @@ from ..mapping.observe import integrate_observation
 from ..mapping.distance import unsafe_mask
 from ..mapping.occupancy import MapConfig, OccupancyMap, VoxelState
 from ..robot.ik import ik_camera
-from ..robot.model import GRIPPER_MAX_WIDTH
+from ..robot.model import GRIPPER_MAX_WIDTH, Q_MAX, Q_MIN
 from ..robot.spheres import panda_sphere_model
 from .grasp_exec import GraspExecConfig, GraspOutcome, execute_grasp
 from .scenes import SceneSpec
@@ -49,7 +49,7 @@ class GraspOnlyConfig:
     home_sweep: bool = True
     view_sweep: bool = True
     path_frames: int = 6
-    near_field_views: int = 16
+    near_field_views: int = 24
     near_body_free: bool = True
     explore_views: int = 12
     explore_path_frames: int = 2
@@ -124,14 +124,19 @@ def oracle_view(world: World, rng: np.random.Generator, config: GraspOnlyConfig,
 
 
 def near_field_configs(world: World, rng: np.random.Generator, n: int) -> list[np.ndarray]:
-    """Up to n wrist configurations around home (joints 1-4 held, joints 5-7 uniform within
-    their limits), kept when free of ground-truth contact along the straight way from home
+    """Up to n wrist configurations around home (joints 5-7 uniform within their limits;
+    every other one with joints 1, 2 and 4 also moved a little), kept when free of ground-truth contact along the straight way from home
     (the simulator stands in for the NFA scan's validity checks)."""
     q_home = np.asarray(world.robot.q_home)
     out = []
     for _ in range(4 * n):
         q = q_home.copy()
+        if len(out) % 2:  # every other view also turns and bends the arm, so the camera sees the space near the base
+            q[0] += rng.uniform(-0.8, 0.8)
+            q[1] += rng.uniform(-0.2, 0.5)
+            q[3] += rng.uniform(-0.3, 0.5)
         q[4] = rng.uniform(-2.5, 2.5)
+        q = np.clip(q, Q_MIN + 1e-3, Q_MAX - 1e-3)
         q[5] = rng.uniform(0.3, 3.6)
         q[6] = rng.uniform(-2.5, 2.5)
         if not world.in_collision(q, GRIPPER_MAX_WIDTH) and _straight_free(world, q_home, q, 0.05):
