@@ -8,7 +8,7 @@ import sys
 from ..errors import CompassInputError
 from ..paths import check_output_dir
 
-HELP = "run one trial of an exploration method and print its metrics"
+HELP = "run one trial (find, then grasp) of an exploration method and print its metrics"
 
 
 def add_arguments(p) -> None:
@@ -20,6 +20,11 @@ def add_arguments(p) -> None:
     p.add_argument("--json", action="store_true", help="print one JSON object instead of a table")
     p.add_argument("--time-limit", type=float, default=200.0, help="simulated time limit [s] (default 200)")
     p.add_argument("--out", default=None, help="folder for result.json and the PNGs")
+    p.add_argument("--find-only", action="store_true", help="stop at FOUND (no GRASP state)")
+    p.add_argument("--grasp-only", action="store_true",
+                   help="grasp alone: start from a view that sees the target (picked by the oracle)")
+    p.add_argument("--unconstrained", action="store_true",
+                   help="grasp selection without the paper's constraints (its ablation)")
 
 
 def check_out(out: str | None) -> str | None:
@@ -27,19 +32,23 @@ def check_out(out: str | None) -> str | None:
     return None if out is None else check_output_dir(out)
 
 
-def run_checked_trial(command: str, spec_args: tuple, time_limit: float, out: str | None):
+def run_checked_trial(command: str, spec_args: tuple, time_limit: float, out: str | None,
+                      find_only: bool = False, constrained: bool = True):
     """Check a trial's spec, time limit [s] and output folder (before any work), run it with
-    a progress line on stderr; returns (TrialRun, TrialConfig, output folder or None)."""
+    a progress line on stderr; returns (TrialRun, TrialConfig, output folder or None).
+    find_only: no GRASP state; constrained False: the grasp selection's ablation."""
     from ..trial.runner import TrialSpec, check_spec
 
     spec = check_spec(TrialSpec(*spec_args))
     if not 0 < time_limit <= 3600:
         raise CompassInputError(f"--time-limit {time_limit} s is not allowed; use 0 < limit <= 3600 s")
     out = check_out(out)
-    from ..trial.config import TrialConfig
+    from ..grasp.select import GraspSelectConfig
+    from ..trial.config import GraspTrialConfig, TrialConfig
     from ..trial.runner import run_trial_full
 
-    config = TrialConfig(time_limit_s=time_limit)
+    grasp = GraspTrialConfig(enabled=not find_only, select=GraspSelectConfig(constrained=constrained))
+    config = TrialConfig(time_limit_s=time_limit, grasp=grasp)
     print(f"compass {command}: {spec.method} on level {spec.level} scene {spec.scene} trial {spec.trial} "
           f"seed {spec.seed}", file=sys.stderr)
     result_run = run_trial_full(spec, config, lambda line: print(f"\r  {line}", end="", file=sys.stderr, flush=True))
@@ -47,9 +56,38 @@ def run_checked_trial(command: str, spec_args: tuple, time_limit: float, out: st
     return result_run, config, out
 
 
+def run_grasp_only(args) -> int:
+    """`--grasp-only`: the grasp-only harness on the certified scene (oracle start view)."""
+    from ..grasp.select import GraspSelectConfig
+    from ..sim.certify import certified_scene
+    from ..sim.grasp_only import GraspOnlyConfig, run_grasp_only as harness
+    from ..sim.levels import check_level
+    from ..trial.runner import TrialSpec, check_spec
+
+    if args.find_only or args.out is not None:
+        raise CompassInputError("--grasp-only takes neither --find-only nor --out")
+    check_level(args.level)
+    spec = check_spec(TrialSpec("compass", args.level, args.scene, args.trial, args.seed))
+    scene = certified_scene(spec.level, spec.scene, spec.seed).scene
+    print(f"compass run --grasp-only: level {spec.level} scene {spec.scene} trial {spec.trial} seed {spec.seed} "
+          f"(start view chosen by the oracle)", file=sys.stderr)
+    config = GraspOnlyConfig(select=GraspSelectConfig(constrained=not args.unconstrained))
+    record = {"level": spec.level, "scene": spec.scene, "trial": spec.trial, "seed": spec.seed,
+              "constrained": not args.unconstrained, **harness(scene, config, seed=spec.trial).to_dict()}
+    if args.json:
+        print(json.dumps(record))
+    else:
+        for k, v in record.items():
+            print(f"{k:>20}: {v}")
+    return 0
+
+
 def run(args) -> int:
+    if args.grasp_only:
+        return run_grasp_only(args)
     result_run, config, out = run_checked_trial(
-        "run", (args.method, args.level, args.scene, args.trial, args.seed), args.time_limit, args.out)
+        "run", (args.method, args.level, args.scene, args.trial, args.seed), args.time_limit, args.out,
+        find_only=args.find_only, constrained=not args.unconstrained)
     record = result_run.result.to_dict()
     if out is not None:
         save_trial(result_run, config, out)
@@ -83,8 +121,9 @@ def save_trial(result_run, config, out: str) -> dict:
     finally:
         world.close()
     title = (f"{r.method}, level {r.level} scene {r.scene} trial {r.trial}: "
-             f"{'found at %.1f s' % r.tft_s if r.success else r.failure.name.lower()}")
+             f"{'found at %.1f s' % r.tft_s if r.found else r.failure.name.lower()}"
+             f"{', ' + (r.failure.name.lower() if r.failure else 'grasped') if r.found and r.grasp_s is not None else ''}")
     save_camera_path_png(result_run.scene, overview, result_run.outcome.camera_path, paths["camera_path"], title)
-    save_explored_png(r.explored_curve, paths["explored"], r.tft_s if r.success else None,
+    save_explored_png(r.explored_curve, paths["explored"], r.tft_s if r.found else None,
                       config.time_limit_s)
     return {k: os.path.abspath(v) for k, v in paths.items()}

@@ -77,6 +77,29 @@ class GraspOnlyResult:
     def success(self) -> bool:
         return self.outcome is not None and self.outcome.success
 
+    def to_dict(self) -> dict:
+        """A JSON-able record (the start is labelled: the oracle picked it)."""
+        s, o = self.selection, self.outcome
+        ok = s is not None and s.failure is None
+        return {
+            "success": bool(self.success), "start": "oracle view (ground truth)",
+            "view_found": self.q_view is not None, "visibility": round(float(self.visibility), 3),
+            "n_target_points": self.n_target_points,
+            "selection_failure": None if s is None or s.failure is None else s.failure.name,
+            "exec_failure": None if o is None or o.failure is None else o.failure.name,
+            "score": None if s is None else s.score, "gpq": None if s is None else round(s.gpq, 4),
+            "approach_angle_deg": round(float(np.degrees(s.approach_angle)), 1) if ok else None,
+            "pregrasp_m": s.pregrasp_distance if ok else None, "commanded_lift_m": s.lift_height if ok else None,
+            "ik_free": None if s is None else s.ik_free, "n_candidates": None if s is None else s.n_candidates,
+            "rejections": None if s is None else {k.name: v for k, v in s.rejections.items()},
+            "select_time_s": None if s is None else round(s.time_s, 4),
+            "plan_time_s": None if s is None else round(s.plan_time_s, 4),
+            "collisions": [] if o is None else [f"{c.phase}:{c.robot_geom}->{c.other_geom}" for c in o.collisions],
+            "lift_height": None if o is None else round(o.lift_height, 4),
+            "hold_height": None if o is None else round(o.hold_height, 4),
+            "map_time_s": round(self.map_time_s, 3),
+        }
+
 
 def _straight_free(world: World, q0: np.ndarray, q1: np.ndarray, step: float = 0.02) -> bool:
     n = max(1, int(np.ceil(np.max(np.abs(q1 - q0)) / step)))

@@ -1,5 +1,7 @@
 """The trial state machine: NFA -> EXPLORE (sense, integrate, detect, decide, move) ->
-FOUND -> DONE, or a failure named by its reason. (GRASP will sit between FOUND and DONE.)
+FOUND -> GRASP -> DONE, or a failure named by its reason. Without a grasp stage (find-only
+trials) FOUND -> DONE. GRASP (`grasp_stage.run_grasp_stage`) selects a grasp on the method's
+map and executes it in physics; the clock advances by its charge and motions.
 
 The simulated clock advances by each trajectory's duration (Panda limits, `motion.timing`)
 plus a charge per decision (fixed by default, so the same seed gives a bit-identical
@@ -33,6 +35,7 @@ class TrialState(enum.Enum):
     NFA = "nfa"
     EXPLORE = "explore"
     FOUND = "found"
+    GRASP = "grasp"
     DONE = "done"
     FAILED = "failed"
 
@@ -41,8 +44,9 @@ class TrialState(enum.Enum):
 class MachineOutcome:
     """How the run ended: the failure (None when found), the accepted detection (a
     `perception.buffer.BufferedDetection`) and the time it was found [s], the end time [s],
-    the states visited in order, the executed camera positions (N, 3) [m] and the final
-    configuration q_end (7,) [rad]."""
+    the states visited in order, the executed camera positions (N, 3) [m], the final
+    configuration q_end (7,) [rad] and the GRASP state's `GraspStageResult` (None when not
+    entered)."""
 
     failure: TrialFailure | None
     found: object | None
@@ -51,19 +55,25 @@ class MachineOutcome:
     states: tuple[TrialState, ...]
     camera_path: np.ndarray
     q_end: np.ndarray
+    grasp: object | None = None
 
 
 class TrialMachine:
     """Runs one trial of `method` in `world` (see the module docstring). `pass_frames`: push
-    whole frames (with labels) to the buffer, for the oracle detector only."""
+    whole frames (with labels) to the buffer, for the oracle detector only. grasp: the GRASP
+    state, `grasp(q_current, detection, executed_paths) -> GraspStageResult`, or None for a
+    find-only trial."""
 
-    def __init__(self, world, method, buffer, metrics, config, progress=None, pass_frames: bool = False) -> None:
+    def __init__(self, world, method, buffer, metrics, config, progress=None, pass_frames: bool = False,
+                 grasp=None) -> None:
         self.world, self.method, self.buffer, self.metrics, self.config = world, method, buffer, metrics, config
         self.progress = progress
         self.pass_frames = pass_frames
         self.t = 0.0
         self.states: list[TrialState] = []
         self.cam: list[np.ndarray] = []
+        self.grasp = grasp
+        self.moved: list[np.ndarray] = []
 
     def _feed(self, frame) -> None:
         obs = frame.observation()
@@ -114,6 +124,7 @@ class TrialMachine:
                 failure = TrialFailure.COLLISION
                 break
             self.method.executed(d.path)
+            self.moved.append(np.asarray(d.path))
             self._feed(self.world.render(res.q_end, t=self.t, rgb=True, seg=render_seg))
             self.metrics.explored_fraction(self.t, self.method.occupancy)
             if self.progress is not None:
@@ -124,6 +135,13 @@ class TrialMachine:
             t_found = found.detection.t
             if t_found > limit:
                 failure, found, t_found = TrialFailure.TIME_LIMIT, None, None
+        grasped = None
+        if failure is None and found is not None and self.grasp is not None:
+            self._enter(TrialState.GRASP)
+            grasped = self.grasp(self.world.q, found.detection, self.moved)
+            self.t += grasped.duration_s
+            self.metrics.collisions += grasped.n_collisions
+            failure = grasped.failure
         self._enter(TrialState.DONE if failure is None else TrialState.FAILED)
         return MachineOutcome(failure, found, t_found, self.t, tuple(self.states), np.array(self.cam).reshape(-1, 3),
-                              self.world.q)
+                              self.world.q, grasped)
