@@ -21,12 +21,14 @@ import numpy as np
 from ..errors import CompassInputError
 from ..robot.model import GRIPPER_MAX_WIDTH
 from .quality import graspnet_score
-from .target import TargetModel
+from .target import TargetModel, thin
 
 #: Length [m] of the Panda fingers from the TCP (pad centre) back to the palm, less a margin.
 PALM_DEPTH = 0.035
 #: Half the width [m] of the fingers across the closing line (x of the hand frame).
 FINGER_HALF_WIDTH = 0.01
+#: Spacing [m] of the target points checked against the palm.
+PALM_POINT_SPACING = 0.008
 
 
 @dataclass(frozen=True)
@@ -174,17 +176,20 @@ def _perp_basis(y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return e1, np.cross(y, e1)
 
 
-def palm_clear(points: np.ndarray, T_world_tcp: np.ndarray, width: np.ndarray, chunk: int = 256) -> np.ndarray:
+def palm_clear(points: np.ndarray, T_world_tcp: np.ndarray, width: np.ndarray, chunk: int = 2048) -> np.ndarray:
     """(M,) True where no target point lies between the fingers deeper than PALM_DEPTH
     behind the TCP (it would be pushed by the palm, which the map cannot stop: the
-    target's own voxels are carved for the fingers)."""
+    target's own voxels are carved for the fingers). The points are thinned to
+    PALM_POINT_SPACING (the region has 1 cm margins); each hand axis is one matrix product
+    (points x candidates)."""
     out = np.ones(len(T_world_tcp), dtype=bool)
+    P = thin(np.asarray(points, dtype=np.float64), PALM_POINT_SPACING)
     for a in range(0, len(T_world_tcp), chunk):
         T = T_world_tcp[a:a + chunk]
-        loc = np.einsum("mpi,mij->mpj", points[None] - T[:, None, :3, 3], T[:, :3, :3])
-        inside = (np.abs(loc[..., 0]) <= FINGER_HALF_WIDTH + 0.01) & \
-                 (np.abs(loc[..., 1]) <= 0.5 * width[a:a + chunk, None] + 0.01)
-        out[a:a + chunk] = ~np.any(inside & (loc[..., 2] < -PALM_DEPTH), axis=1)
+        t = T[:, :3, 3]
+        loc = [P @ T[:, :3, k].T - np.sum(t * T[:, :3, k], axis=1)[None] for k in range(3)]  # (N, m) each
+        inside = (np.abs(loc[0]) <= FINGER_HALF_WIDTH + 0.01) & (np.abs(loc[1]) <= 0.5 * width[None, a:a + chunk] + 0.01)
+        out[a:a + chunk] = ~np.any(inside & (loc[2] < -PALM_DEPTH), axis=0)
     return out
 
 

@@ -29,7 +29,6 @@ from enum import Enum
 import numpy as np
 
 from ..errors import CompassInputError
-from ..geometry import make_T
 from ..mapping.distance import DistanceField
 from ..mapping.occupancy import OccupancyMap, VoxelState
 from ..motion.planner import PlannerConfig, plan
@@ -41,6 +40,7 @@ from ..robot.spheres import SphereModel
 from ..task import Task
 from .candidates import AntipodalProposer, CandidateConfig, GraspCandidates, GraspProposer
 from .carve import grasp_field
+from .checks import GraspChecks, hand_clear, offset_pose, rigid_hand_spheres  # noqa: F401 (re-exported)
 from .target import TargetModel
 
 
@@ -82,7 +82,7 @@ class GraspSelectConfig:
     at most; max_joint_step [rad] between grasp and pre-grasp/lift configurations (a straight
     approach); voxel_extent: unsafe voxels are cubes (the checker subtracts half a voxel
     diagonal) rather than points at their centres; field_upsample: the checked field's grid
-    is this many times finer than the map's (`carve.grasp_field`); planner: settings of the
+    near the target is this many times finer than the map's (`checks.GraspChecks`); planner: settings of the
     path to the pre-grasp."""
 
     constrained: bool = True
@@ -200,88 +200,6 @@ def base_volume(spheres: SphereModel, q_ref: np.ndarray, n_q1: int = 36, n_q2: i
     return C.reshape(-1, 3), np.tile(spheres.radii[keep] + 0.02, len(Q))
 
 
-def rigid_hand_spheres(spheres: SphereModel) -> tuple[np.ndarray, np.ndarray]:
-    """Spheres of the links rigid with the TCP (link7, flange, hand, camera housing, open
-    fingers) in the TCP frame: (centres (K,3) [m], radii (K,) [m]). They let a grasp pose
-    be checked against the map before any IK is solved."""
-    names = ("panda_link7", "panda_link8", "hand/panda_hand", "hand/panda_leftfinger", "hand/panda_rightfinger")
-    keep = np.isin(spheres.body_index, [spheres.link_names.index(k) for k in names if k in spheres.link_names])
-    q = np.array([0.0, -0.3, 0.0, -2.2, 0.0, 2.0, 0.785])
-    C = spheres.sphere_centers(q[None])[0][keep]
-    T = spheres.kinematics.T_world_tcp(q)
-    return (C - T[:3, 3]) @ T[:3, :3], spheres.radii[keep].copy()
-
-
-def hand_clear(field: DistanceField, T_world_tcp: np.ndarray, local: tuple[np.ndarray, np.ndarray],
-               voxel_extent: bool = True) -> np.ndarray:
-    """(M,) True where every rigid hand sphere at each TCP pose (M,4,4) clears unsafe space,
-    with the validity checker's conservative bound (nearest voxel centre, its offset and
-    half a voxel diagonal subtracted)."""
-    C, r = local
-    W = np.einsum("mij,kj->mki", T_world_tcp[:, :3, :3], C) + T_world_tcp[:, None, :3, 3]
-    res = field.resolution
-    f = (W - field.grid_min) / res - 0.5
-    i = np.floor(f + 0.5).astype(np.int64)
-    shape = np.asarray(field.distances.shape)
-    inside = np.all((i >= 0) & (i < shape), axis=-1)
-    ic = np.clip(i, 0, shape - 1)
-    d = field.distances[ic[..., 0], ic[..., 1], ic[..., 2]]
-    half = 0.5 * math.sqrt(3.0) * res if voxel_extent else 0.0
-    clear = d - np.linalg.norm(f - i, axis=-1) * res - half - r
-    return np.all(inside & (clear >= 0.0), axis=1)
-
-
-def offset_pose(T: np.ndarray, along_approach: float = 0.0, up: float = 0.0) -> np.ndarray:
-    """T moved by along_approach [m] along its z and by up [m] along world z."""
-    return make_T(T[:3, :3], T[:3, 3] + along_approach * T[:3, 2] + np.array([0.0, 0.0, up]))
-
-
-class _Checks:
-    """Per-selection context: checker, field, IK, target, config."""
-
-    def __init__(self, checker, field_, ik, target, config):
-        self.checker, self.field, self.ik, self.target, self.config = checker, field_, ik, target, config
-
-    def held_target_clear(self, lift_height: float) -> bool:
-        """The target's points stay in safe space all along a lift of lift_height [m] (1 cm steps)."""
-        steps = np.arange(0.0, lift_height + 1e-9, 0.01)[1:]
-        if len(steps) == 0:
-            return True
-        pts = (self.target.points[None] + steps[:, None, None] * np.array([0.0, 0.0, 1.0])).reshape(-1, 3)
-        return bool(np.all(self.field.distance_at(pts) >= 0.5 * self.field.resolution))
-
-    def near(self, T: np.ndarray, q_ref: np.ndarray, validity) -> np.ndarray | None:
-        r = self.ik.solve(T, "tcp", q_ref, self.config.n_q7, validity, retry=False)
-        if not r.success or np.max(np.abs(r.solutions[0] - q_ref)) > self.config.max_joint_step:
-            return None
-        return r.solutions[0]
-
-    def check(self, T: np.ndarray, q_current: np.ndarray, pre: float, lift: float, lift_clear: bool):
-        """(q_grasp, q_pregrasp, q_lift) for one candidate pose with its pre-grasp distance
-        and lift height [m], or (None, rejection)."""
-        config, chk = self.config, self.checker
-        r = self.ik.solve(T, "tcp", q_current, config.n_q7, None)
-        if not r.success:
-            return None, Rejection.NO_IK
-        free = chk.are_valid(r.solutions)
-        if not free.any():
-            return None, Rejection.IK_IN_COLLISION
-        reason = Rejection.PREGRASP_BLOCKED
-        for q_g in r.solutions[free][: config.max_ik_solutions]:
-            q_pre = self.near(offset_pose(T, -pre), q_g, chk)
-            if q_pre is None:
-                continue
-            if not chk.edge_valid(q_pre, q_g):
-                reason = Rejection.APPROACH_BLOCKED
-                continue
-            q_lift = self.near(offset_pose(T, up=lift), q_g, chk)
-            if q_lift is None or not lift_clear or not chk.edge_valid(q_g, q_lift):
-                reason = Rejection.LIFT_BLOCKED
-                continue
-            return (q_g, q_pre, q_lift), None
-        return None, reason
-
-
 def select_grasp(target: TargetModel, occ: OccupancyMap, task: Task, q_current: np.ndarray,
                  spheres: SphereModel, config: GraspSelectConfig | None = None,
                  rng: np.random.Generator | None = None, proposer: GraspProposer | None = None,
@@ -310,11 +228,8 @@ def select_grasp(target: TargetModel, occ: OccupancyMap, task: Task, q_current: 
     if safe_spheres is not None:
         safe_c = np.vstack([safe_c, np.asarray(safe_spheres[0]).reshape(-1, 3)])
         safe_r = np.r_[safe_r, np.asarray(safe_spheres[1]).reshape(-1)]
-    field_ = grasp_field(occ, target, config.clearance, safe_spheres=(safe_c, safe_r), extra_safe=extra_safe,
-                         upsample=config.field_upsample)
-    checker = ValidityChecker(spheres, grid=DistanceGrid.from_distance_field(field_),
-                              config=ValidityConfig(voxel_extent=config.voxel_extent))
-    checks = _Checks(checker, field_, ik, target, config)
+    checks = GraspChecks(occ, target, spheres, ik, config, (safe_c, safe_r), extra_safe)
+    field_, checker = checks.fine, checks.full
     if config.constrained and "toward" in inspect.signature(proposer.propose).parameters:
         # sample approaches only inside the cone the constraint allows
         cands = proposer.propose(target, rng, toward=n, max_angle=config.max_approach_angle)
@@ -332,7 +247,7 @@ def select_grasp(target: TargetModel, occ: OccupancyMap, task: Task, q_current: 
                                   dict(rejections), time.perf_counter() - t0, plan_time, failure)
         T = cands.T_world_tcp[idx]
         ang = float(approach_angles(cands.take([idx]), n)[0])
-        free = bool(checker.is_valid(qs[0]))
+        free = bool(checks.valid(np.asarray(qs[0])[None])[0])
         s = float(cands.score[idx])
         return GraspSelection(T, float(cands.width[idx]), s, *qs, path, ang, free, gpq(s, free, ang), n,
                               len(cands), dict(rejections), time.perf_counter() - t0, plan_time, None,
@@ -378,7 +293,7 @@ def select_grasp(target: TargetModel, occ: OccupancyMap, task: Task, q_current: 
     def clear_at(idx, back, up):
         T = cands.T_world_tcp[idx].copy()
         T[:, :3, 3] += back * T[:, :3, 2] + np.array([0.0, 0.0, up])
-        return hand_clear(field_, T, local, config.voxel_extent)
+        return hand_clear(field_, T, local, config.voxel_extent)  # on the fine field near the target
 
     ok = clear_at(within, 0.0, 0.0)
     rejections[Rejection.HAND_IN_COLLISION] = int(np.count_nonzero(~ok))
@@ -432,6 +347,7 @@ def select_grasp(target: TargetModel, occ: OccupancyMap, task: Task, q_current: 
                 return out
             feasible = []
         qs, why = checks.check(cands.T_world_tcp[idx], q_current, pre_of[idx], lift_of[idx], lift_clear[lift_of[idx]])
+        why = None if why is None else Rejection[why]
         if why is not None:
             rejections[why] += 1
             n_free_ik += why not in (Rejection.NO_IK, Rejection.IK_IN_COLLISION)

@@ -1,0 +1,149 @@
+"""The checks of one grasp selection against the map, at two resolutions.
+
+The unsafe space (unknown or occupied, less the target's carve and the robot's own space,
+`carve.grasp_unsafe`) is turned into two distance fields: the map's grid for the arm, and a
+grid `field_upsample` times finer in a box around the target for the hand. A checker's
+conservative bound (distance at the nearest grid centre, minus the offset to it) loses up to
+half a grid diagonal: 8.7 mm at 1 cm voxels, which is the clearance the certified scenes
+leave around the hand. So the hand (every link rigid with the TCP) is checked on the fine
+field at the grasp, along the approach and along the lift (`hand_clear`), and the
+configurations (IK solutions, pre-grasp, lift, the straight edges between them) are
+checked with the arm's other links on the map's grid plus the whole robot's self-collision.
+The path from the current configuration to the pre-grasp is planned with the whole robot
+on the map's grid (`full`).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..geometry import make_T
+from ..mapping.distance import DistanceField
+from ..mapping.occupancy import OccupancyMap
+from ..motion.primitives import DistanceGrid
+from ..motion.validity import ValidityChecker, ValidityConfig
+from ..robot.spheres import SphereModel
+from .carve import grasp_unsafe, local_fine_field
+from .target import TargetModel
+
+#: Links rigid with the TCP (checked on the fine field before any IK).
+HAND_LINKS = ("panda_link7", "panda_link8", "hand/panda_hand", "hand/panda_leftfinger", "hand/panda_rightfinger")
+
+
+def rigid_hand_spheres(spheres: SphereModel) -> tuple[np.ndarray, np.ndarray]:
+    """Spheres of the links rigid with the TCP (link7, flange, hand, camera housing, open
+    fingers) in the TCP frame: (centres (K,3) [m], radii (K,) [m]). They let a grasp pose
+    be checked against the map before any IK is solved."""
+    keep = _hand_mask(spheres)
+    q = np.array([0.0, -0.3, 0.0, -2.2, 0.0, 2.0, 0.785])
+    C = spheres.sphere_centers(q[None])[0][keep]
+    T = spheres.kinematics.T_world_tcp(q)
+    return (C - T[:3, 3]) @ T[:3, :3], spheres.radii[keep].copy()
+
+
+def hand_clear(field: DistanceField, T_world_tcp: np.ndarray, local: tuple[np.ndarray, np.ndarray],
+               voxel_extent: bool = True) -> np.ndarray:
+    """(M,) True where every rigid hand sphere at each TCP pose (M,4,4) clears unsafe space,
+    with the validity checker's conservative bound (nearest voxel centre, its offset and
+    half a voxel diagonal subtracted)."""
+    C, r = local
+    W = np.einsum("mij,kj->mki", T_world_tcp[:, :3, :3], C) + T_world_tcp[:, None, :3, 3]
+    res = field.resolution
+    f = (W - field.grid_min) / res - 0.5
+    i = np.floor(f + 0.5).astype(np.int64)
+    shape = np.asarray(field.distances.shape)
+    inside = np.all((i >= 0) & (i < shape), axis=-1)
+    ic = np.clip(i, 0, shape - 1)
+    d = field.distances[ic[..., 0], ic[..., 1], ic[..., 2]]
+    half = 0.5 * math.sqrt(3.0) * res if voxel_extent else 0.0
+    clear = d - np.linalg.norm(f - i, axis=-1) * res - half - r
+    return np.all(inside & (clear >= 0.0), axis=1)
+
+
+def offset_pose(T: np.ndarray, along_approach: float = 0.0, up: float = 0.0) -> np.ndarray:
+    """T moved by along_approach [m] along its z and by up [m] along world z."""
+    return make_T(T[:3, :3], T[:3, 3] + along_approach * T[:3, 2] + np.array([0.0, 0.0, up]))
+
+
+def _hand_mask(spheres: SphereModel) -> np.ndarray:
+    return np.isin(spheres.body_index, [spheres.link_names.index(k) for k in HAND_LINKS if k in spheres.link_names])
+
+
+def arm_sphere_model(spheres: SphereModel) -> SphereModel:
+    """The sphere model without the links rigid with the TCP (no self-collision pairs: the
+    whole model's self check runs separately)."""
+    keep = ~_hand_mask(spheres)
+    return SphereModel(spheres.kinematics, spheres.body_index[keep], spheres.centers_local[keep],
+                       spheres.radii[keep], np.zeros((0, 2), np.int64))
+
+
+class GraspChecks:
+    """Per-selection context (module doc): `fine` field near the target, `full` checker
+    (whole robot, map grid), `valid` / `edge_valid` for grasp configurations, IK helpers."""
+
+    def __init__(self, occ: OccupancyMap, target: TargetModel, spheres: SphereModel, ik, config,
+                 safe_spheres: tuple[np.ndarray, np.ndarray], extra_safe: np.ndarray | None = None,
+                 box_margin: float = 0.4):
+        self.ik, self.target, self.config = ik, target, config
+        unsafe = grasp_unsafe(occ, target, config.clearance, safe_spheres, extra_safe)
+        coarse = DistanceField.from_unsafe(unsafe, occ.grid_min, occ.resolution)
+        lo, hi = target.points.min(0) - box_margin, target.points.max(0) + box_margin
+        self.fine = local_fine_field(unsafe, occ, lo, hi, config.field_upsample)
+        grid = DistanceGrid.from_distance_field(coarse)
+        vc = ValidityConfig(voxel_extent=config.voxel_extent)
+        self.full = ValidityChecker(spheres, grid=grid, config=vc)
+        self.arm = ValidityChecker(arm_sphere_model(spheres), grid=grid,
+                                   config=ValidityConfig(voxel_extent=config.voxel_extent, check_self=False))
+        self.self_only = ValidityChecker(spheres)
+
+    def valid(self, Q: np.ndarray) -> np.ndarray:
+        """(N,) configurations free: the arm on the map grid, the robot against itself."""
+        Q = np.asarray(Q, dtype=np.float64).reshape(-1, 7)
+        return self.arm.are_valid(Q) & self.self_only.are_valid(Q)
+
+    def are_valid(self, Q: np.ndarray) -> np.ndarray:  # the IK solver's validity interface
+        return self.valid(Q)
+
+    def edge_valid(self, q0: np.ndarray, q1: np.ndarray) -> bool:
+        return bool(self.arm.edge_valid(q0, q1) and self.self_only.edge_valid(q0, q1))
+
+    def held_target_clear(self, lift_height: float) -> bool:
+        """The target's points stay in safe space all along a lift of lift_height [m] (1 cm steps)."""
+        steps = np.arange(0.0, lift_height + 1e-9, 0.01)[1:]
+        if len(steps) == 0:
+            return True
+        pts = (self.target.points[None] + steps[:, None, None] * np.array([0.0, 0.0, 1.0])).reshape(-1, 3)
+        return bool(np.all(self.fine.distance_at(pts) >= 0.5 * self.fine.resolution))
+
+    def near(self, T: np.ndarray, q_ref: np.ndarray, validity) -> np.ndarray | None:
+        r = self.ik.solve(T, "tcp", q_ref, self.config.n_q7, validity, retry=False)
+        if not r.success or np.max(np.abs(r.solutions[0] - q_ref)) > self.config.max_joint_step:
+            return None
+        return r.solutions[0]
+
+    def check(self, T: np.ndarray, q_current: np.ndarray, pre: float, lift: float, lift_clear: bool):
+        """((q_grasp, q_pregrasp, q_lift), None) for one candidate pose with its pre-grasp
+        distance and lift height [m] (the hand already checked on the fine field), or
+        (None, the `select.Rejection` name)."""
+        config = self.config
+        r = self.ik.solve(T, "tcp", q_current, config.n_q7, None)
+        if not r.success:
+            return None, "NO_IK"
+        free = self.valid(r.solutions)
+        if not free.any():
+            return None, "IK_IN_COLLISION"
+        reason = "PREGRASP_BLOCKED"
+        for q_g in r.solutions[free][: config.max_ik_solutions]:
+            q_pre = self.near(offset_pose(T, -pre), q_g, self)
+            if q_pre is None:
+                continue
+            if not self.edge_valid(q_pre, q_g):
+                reason = "APPROACH_BLOCKED"
+                continue
+            q_lift = self.near(offset_pose(T, up=lift), q_g, self)
+            if q_lift is None or not lift_clear or not self.edge_valid(q_g, q_lift):
+                reason = "LIFT_BLOCKED"
+                continue
+            return (q_g, q_pre, q_lift), None
+        return None, reason
