@@ -6,6 +6,7 @@ import math
 import numpy as np
 import pytest
 
+from compass_manip.errors import CompassInputError
 from compass_manip.grasp.candidates import GraspCandidates, antipodal_candidates
 from compass_manip.grasp.select import (GraspFailure, GraspSelectConfig, Rejection, approach_angles,
                                         desired_approach, gpq, select_grasp)
@@ -82,3 +83,26 @@ def test_the_box_under_the_board_is_grasped_from_the_side(world):
                        np.random.default_rng(0))
     assert Rejection.APPROACH_ANGLE not in off.rejections
     assert off.failure is GraspFailure.NO_PATH or off.score >= sel.score
+
+
+def test_the_fine_field_near_the_target_keeps_the_same_cubes_and_loses_less():
+    from compass_manip.grasp.carve import local_fine_field
+    from compass_manip.mapping.distance import DistanceField
+
+    occ = OccupancyMap(MapConfig())
+    occ.set_box(occ.grid_min, occ.grid_max, VoxelState.FREE)
+    occ.set_box(np.array([0.50, -0.05, 0.40]), np.array([0.52, 0.05, 0.50]), VoxelState.OCCUPIED)
+    unsafe = occ.state != VoxelState.FREE
+    coarse = DistanceField.from_unsafe(unsafe, occ.grid_min, occ.resolution)
+    fine = local_fine_field(unsafe, occ, np.array([0.3, -0.2, 0.3]), np.array([0.7, 0.2, 0.6]), 2)
+    assert fine.resolution == pytest.approx(0.005)
+    p = np.array([[0.60, 0.0, 0.45], [0.56, 0.01, 0.43], [0.40, 0.0, 0.45]])
+    lo_cube = np.array([0.50, -0.05, 0.40])
+    hi_cube = np.array([0.52, 0.05, 0.50]) + occ.resolution  # the occupied voxels' far faces
+    true = np.linalg.norm(np.maximum(np.maximum(lo_cube - p, p - hi_cube), 0.0), axis=1)
+    for f in (coarse, fine):  # distances between centres: within a voxel diagonal of the cubes' distance
+        d = f.distance_at(p)
+        assert np.all(np.abs(d - true) <= np.sqrt(3) * f.resolution + 1e-9)
+    assert np.all(np.abs(fine.distance_at(p) - true) <= np.sqrt(3) * 0.005 + 1e-9)
+    with pytest.raises(CompassInputError, match="upsample"):
+        local_fine_field(unsafe, occ, p[0], p[0], 9)

@@ -1,16 +1,17 @@
-"""The checks of one grasp selection against the map, at two resolutions.
+"""The checks of one grasp selection against the map, on a finer grid.
 
 The unsafe space (unknown or occupied, less the target's carve and the robot's own space,
-`carve.grasp_unsafe`) is turned into two distance fields: the map's grid for the arm, and a
-grid `field_upsample` times finer in a box around the target for the hand. A checker's
-conservative bound (distance at the nearest grid centre, minus the offset to it) loses up to
-half a grid diagonal: 8.7 mm at 1 cm voxels, which is the clearance the certified scenes
-leave around the hand. So the hand (every link rigid with the TCP) is checked on the fine
-field at the grasp, along the approach and along the lift (`hand_clear`), and the
-configurations (IK solutions, pre-grasp, lift, the straight edges between them) are
-checked with the arm's other links on the map's grid plus the whole robot's self-collision.
-The path from the current configuration to the pre-grasp is planned with the whole robot
-on the map's grid (`full`).
+`carve.grasp_unsafe`) becomes a distance field `field_upsample` times finer than the map in
+a box holding the robot as it stands and the target (`carve.local_fine_field`; outside the
+box is unsafe). Every unsafe voxel is split into unsafe sub-voxels, so the unsafe space is
+the same cubes; a checker's conservative bound (distance at the nearest grid centre, minus
+the offset to it and half a grid diagonal) then loses at most one fine voxel diagonal
+(8.7 mm at 5 mm) instead of one map voxel diagonal (17 mm at 1 cm), which is the clearance
+the certified scenes leave around the hand. The hand (every link rigid with the TCP) is
+checked on it at the grasp, along the approach and along the lift (`hand_clear`) before
+any IK; configurations and straight edges use the whole robot on it, and the planned path
+to the pre-grasp (`plan`) keeps `plan_margin` more: a free-space ray grazing a board's edge
+can mark a voxel free that the board still reaches into.
 """
 from __future__ import annotations
 
@@ -70,43 +71,35 @@ def _hand_mask(spheres: SphereModel) -> np.ndarray:
     return np.isin(spheres.body_index, [spheres.link_names.index(k) for k in HAND_LINKS if k in spheres.link_names])
 
 
-def arm_sphere_model(spheres: SphereModel) -> SphereModel:
-    """The sphere model without the links rigid with the TCP (no self-collision pairs: the
-    whole model's self check runs separately)."""
-    keep = ~_hand_mask(spheres)
-    return SphereModel(spheres.kinematics, spheres.body_index[keep], spheres.centers_local[keep],
-                       spheres.radii[keep], np.zeros((0, 2), np.int64))
-
-
 class GraspChecks:
     """Per-selection context (module doc): `fine` field near the target, `full` checker
     (whole robot, map grid), `valid` / `edge_valid` for grasp configurations, IK helpers."""
 
     def __init__(self, occ: OccupancyMap, target: TargetModel, spheres: SphereModel, ik, config,
                  safe_spheres: tuple[np.ndarray, np.ndarray], extra_safe: np.ndarray | None = None,
-                 box_margin: float = 0.4):
+                 q_current: np.ndarray | None = None, box_margin: float = 0.25):
         self.ik, self.target, self.config = ik, target, config
         unsafe = grasp_unsafe(occ, target, config.clearance, safe_spheres, extra_safe)
-        coarse = DistanceField.from_unsafe(unsafe, occ.grid_min, occ.resolution)
-        lo, hi = target.points.min(0) - box_margin, target.points.max(0) + box_margin
-        self.fine = local_fine_field(unsafe, occ, lo, hi, config.field_upsample)
-        grid = DistanceGrid.from_distance_field(coarse)
+        pts = target.points
+        if q_current is not None:  # the box holds the robot as it stands and the target
+            pts = np.vstack([pts, spheres.sphere_centers(np.asarray(q_current, dtype=np.float64)[None])[0]])
+        self.fine = local_fine_field(unsafe, occ, pts.min(0) - box_margin, pts.max(0) + box_margin,
+                                     config.field_upsample)
+        grid = DistanceGrid.from_distance_field(self.fine)
         vc = ValidityConfig(voxel_extent=config.voxel_extent)
         self.full = ValidityChecker(spheres, grid=grid, config=vc)
-        self.arm = ValidityChecker(arm_sphere_model(spheres), grid=grid,
-                                   config=ValidityConfig(voxel_extent=config.voxel_extent, check_self=False))
-        self.self_only = ValidityChecker(spheres)
+        self.plan = ValidityChecker(spheres, grid=grid, config=ValidityConfig(voxel_extent=config.voxel_extent,
+                                                                              margin=config.plan_margin))
 
     def valid(self, Q: np.ndarray) -> np.ndarray:
-        """(N,) configurations free: the arm on the map grid, the robot against itself."""
-        Q = np.asarray(Q, dtype=np.float64).reshape(-1, 7)
-        return self.arm.are_valid(Q) & self.self_only.are_valid(Q)
+        """(N,) configurations free of the map and of self-collision."""
+        return self.full.are_valid(np.asarray(Q, dtype=np.float64).reshape(-1, 7))
 
     def are_valid(self, Q: np.ndarray) -> np.ndarray:  # the IK solver's validity interface
         return self.valid(Q)
 
     def edge_valid(self, q0: np.ndarray, q1: np.ndarray) -> bool:
-        return bool(self.arm.edge_valid(q0, q1) and self.self_only.edge_valid(q0, q1))
+        return bool(self.full.edge_valid(q0, q1))
 
     def held_target_clear(self, lift_height: float) -> bool:
         """The target's points stay in safe space all along a lift of lift_height [m] (1 cm steps)."""

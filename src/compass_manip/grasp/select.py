@@ -82,8 +82,8 @@ class GraspSelectConfig:
     at most; max_joint_step [rad] between grasp and pre-grasp/lift configurations (a straight
     approach); voxel_extent: unsafe voxels are cubes (the checker subtracts half a voxel
     diagonal) rather than points at their centres; field_upsample: the checked field's grid
-    near the target is this many times finer than the map's (`checks.GraspChecks`); planner: settings of the
-    path to the pre-grasp."""
+    near the target is this many times finer than the map's (`checks.GraspChecks`); plan_margin
+    [m] kept by the planned path to the pre-grasp; planner: settings of that path."""
 
     constrained: bool = True
     max_approach_angle: float = math.radians(50.0)
@@ -96,8 +96,9 @@ class GraspSelectConfig:
     max_feasible: int = 4
     max_checked: int = 60
     max_joint_step: float = 0.6
-    voxel_extent: bool = False
+    voxel_extent: bool = True
     field_upsample: int = 2
+    plan_margin: float = 0.005
     candidates: CandidateConfig = field(default_factory=CandidateConfig)
     planner: PlannerConfig = field(default_factory=lambda: PlannerConfig(time_budget=0.5))
 
@@ -228,7 +229,7 @@ def select_grasp(target: TargetModel, occ: OccupancyMap, task: Task, q_current: 
     if safe_spheres is not None:
         safe_c = np.vstack([safe_c, np.asarray(safe_spheres[0]).reshape(-1, 3)])
         safe_r = np.r_[safe_r, np.asarray(safe_spheres[1]).reshape(-1)]
-    checks = GraspChecks(occ, target, spheres, ik, config, (safe_c, safe_r), extra_safe)
+    checks = GraspChecks(occ, target, spheres, ik, config, (safe_c, safe_r), extra_safe, q_current)
     field_, checker = checks.fine, checks.full
     if config.constrained and "toward" in inspect.signature(proposer.propose).parameters:
         # sample approaches only inside the cone the constraint allows
@@ -332,7 +333,7 @@ def select_grasp(target: TargetModel, occ: OccupancyMap, task: Task, q_current: 
     def try_plan(group):
         nonlocal plan_time
         goals = np.array([qs[1] for _, qs in group])
-        res = plan(q_current, goals, checker, config.planner, rng)
+        res = plan(q_current, goals, checks.plan, config.planner, rng)
         plan_time += res.plan_time_s
         if res.success:
             idx, qs = group[res.goal_index]
