@@ -87,6 +87,7 @@ def test_the_box_under_the_board_is_grasped_from_the_side(world):
 
 def test_the_fine_field_near_the_target_keeps_the_same_cubes_and_loses_less():
     from compass_manip.grasp.carve import local_fine_field
+    from compass_manip.grasp.checks import hand_clear
     from compass_manip.mapping.distance import DistanceField
 
     occ = OccupancyMap(MapConfig())
@@ -96,13 +97,21 @@ def test_the_fine_field_near_the_target_keeps_the_same_cubes_and_loses_less():
     coarse = DistanceField.from_unsafe(unsafe, occ.grid_min, occ.resolution)
     fine = local_fine_field(unsafe, occ, np.array([0.3, -0.2, 0.3]), np.array([0.7, 0.2, 0.6]), 2)
     assert fine.resolution == pytest.approx(0.005)
-    p = np.array([[0.60, 0.0, 0.45], [0.56, 0.01, 0.43], [0.40, 0.0, 0.45]])
-    lo_cube = np.array([0.50, -0.05, 0.40])
-    hi_cube = np.array([0.52, 0.05, 0.50]) + occ.resolution  # the occupied voxels' far faces
-    true = np.linalg.norm(np.maximum(np.maximum(lo_cube - p, p - hi_cube), 0.0), axis=1)
-    for f in (coarse, fine):  # distances between centres: within a voxel diagonal of the cubes' distance
-        d = f.distance_at(p)
-        assert np.all(np.abs(d - true) <= np.sqrt(3) * f.resolution + 1e-9)
-    assert np.all(np.abs(fine.distance_at(p) - true) <= np.sqrt(3) * 0.005 + 1e-9)
+    cubes = occ.grid_min + np.argwhere(unsafe) * occ.resolution  # min corners of the unsafe cubes
+    rng = np.random.default_rng(0)
+    p = np.array([0.51, 0.0, 0.45]) + rng.uniform(-0.08, 0.08, (300, 3))
+    gap = np.maximum(np.maximum(cubes[None] - p[:, None], p[:, None] - (cubes[None] + occ.resolution)), 0.0)
+    true = np.min(np.linalg.norm(gap, axis=2), axis=1)  # exact distance to the cubes
+    ident = np.broadcast_to(np.eye(4), (len(p), 4, 4)).copy()
+    ident[:, :3, 3] = p
+    bounds = []
+    for f in (coarse, fine):
+        # hand_clear with one sphere of radius r at each point: clear only if r <= the true distance
+        for r in (0.004, 0.012, 0.02):
+            ok = hand_clear(f, ident, (np.zeros((1, 3)), np.array([r])), voxel_extent=True)
+            assert np.all(true[ok] >= r - 1e-9)  # sound: never clear where a cube is nearer than r
+        ok = hand_clear(f, ident, (np.zeros((1, 3)), np.array([0.012])), voxel_extent=True)
+        bounds.append(ok.sum())
+    assert bounds[1] > bounds[0]  # the fine field clears more of the truly free points
     with pytest.raises(CompassInputError, match="upsample"):
         local_fine_field(unsafe, occ, p[0], p[0], 9)

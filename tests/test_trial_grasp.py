@@ -10,7 +10,7 @@ from compass_manip.grasp.select import GraspFailure
 from compass_manip.mapping.observe import integrate_observation
 from compass_manip.mapping.occupancy import MapConfig, OccupancyMap
 from compass_manip.robot.spheres import panda_sphere_model
-from compass_manip.sim.grasp_only import GraspOnlyConfig, oracle_detection, oracle_view
+from compass_manip.sim.grasp_only import GraspOnlyConfig, near_field_configs, oracle_detection, oracle_view
 from compass_manip.sim.scenes import CabinetSpec, Primitive, SceneSpec
 from compass_manip.sim.world import World
 from compass_manip.trial.config import GraspTrialConfig, TrialConfig
@@ -84,12 +84,14 @@ def test_grasp_stage_lifts_a_free_standing_box_from_the_methods_map():
         q_home = np.asarray(world.robot.q_home)
         occ, spheres = OccupancyMap(MapConfig()), panda_sphere_model(world.robot)
         path = np.stack([q_home + (q_view - q_home) * s for s in np.linspace(0.0, 1.0, 8)])
-        for q in path:
+        looks = near_field_configs(world, rng, 12)  # the near field, as the trial's NFA scan sees it
+        for q in [*looks, *path]:
             integrate_observation(occ, world.render(q, rgb=False, seg=False), spheres, world.camera.depth_max)
+        moved = [path] + [np.stack([q_home, q]) for q in looks]
         view = world.render(q_view, rgb=False, seg=True)
         det = SimpleNamespace(points_world=oracle_detection(world, view), T_world_cam=view.T_world_cam)
         world.set_q(q_view)
-        r = run_grasp_stage(world, occ, det, scene.task(), q_view, [path], GraspTrialConfig(), rng, 0.1)
+        r = run_grasp_stage(world, occ, det, scene.task(), q_view, moved, GraspTrialConfig(), rng, 0.1)
     finally:
         world.close()
     assert r.failure is None, (r.selection.failure, r.selection.rejections, r.outcome and r.outcome.failure)

@@ -27,6 +27,8 @@ from .target import TargetModel, thin
 PALM_DEPTH = 0.035
 #: Half the width [m] of the fingers across the closing line (x of the hand frame).
 FINGER_HALF_WIDTH = 0.01
+#: Depth [m] below the target's top that a grasp's contact midpoint keeps (`top_margin`).
+TOP_MARGIN = 0.012
 #: Spacing [m] of the target points checked against the palm.
 PALM_POINT_SPACING = 0.008
 
@@ -193,13 +195,21 @@ def palm_clear(points: np.ndarray, T_world_tcp: np.ndarray, width: np.ndarray, c
     return out
 
 
+def top_margin(points: np.ndarray) -> float:
+    """Depth [m] below the target's top that a grasp's contact midpoint keeps: the finger pads
+    (2 cm wide) then lie on the object, not half above it; a quarter of the height for a
+    flat target."""
+    return float(min(TOP_MARGIN, 0.25 * np.ptp(points[:, 2])))
+
+
 def first_contacts(points: np.ndarray, config: CandidateConfig, rng: np.random.Generator) -> np.ndarray:
     """Indices of the first contacts: `top_fraction` of n_contacts drawn from the points
     within `top_band` [m] of the target's highest point (a hand reaching into a cluttered
     shelf finds its free corridor above what stands around the target, and a grasp near
     the top lifts it out without sweeping its neighbours), the rest from all points."""
     n = min(config.n_contacts, len(points))
-    top = np.nonzero(points[:, 2] >= points[:, 2].max() - config.top_band)[0]
+    z = points[:, 2]
+    top = np.nonzero((z >= z.max() - config.top_band) & (z <= z.max() - top_margin(points)))[0]
     n_top = min(int(round(config.top_fraction * n)), len(top))
     a = rng.choice(top, size=n_top, replace=False) if n_top else np.zeros(0, np.int64)
     rest = np.setdiff1d(np.arange(len(points)), a)
@@ -231,7 +241,8 @@ def antipodal_candidates(target: TargetModel, config: CandidateConfig | None = N
                          rng: np.random.Generator | None = None, toward: np.ndarray | None = None,
                          max_angle: float | None = None) -> GraspCandidates:
     """Scored antipodal candidates on the target model (see the module doc). Only
-    force-closure pairs (s > 0) within the hand's opening are returned. toward (3,) and
+    force-closure pairs (s > 0) within the hand's opening, their midpoint at least
+    `top_margin` below the target's top, are returned. toward (3,) and
     max_angle [rad]: sample the approach rolls only within max_angle of toward (the
     constrained selection's cone around n), instead of all round the closing line."""
     config = config or CandidateConfig()
@@ -247,7 +258,7 @@ def antipodal_candidates(target: TargetModel, config: CandidateConfig | None = N
         return GraspCandidates.empty()
     p1, p2, n1, n2 = P[i], P[j], N[i], N[j]
     score = graspnet_score(p1, p2, n1, n2)
-    keep = score > 0
+    keep = (score > 0) & (0.5 * (p1[:, 2] + p2[:, 2]) <= P[:, 2].max() - top_margin(P))
     p1, p2, n1, n2, width, score = p1[keep], p2[keep], n1[keep], n2[keep], width[keep], score[keep]
     if len(p1) == 0:
         return GraspCandidates.empty()

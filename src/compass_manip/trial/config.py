@@ -45,7 +45,9 @@ class GraspTrialConfig:
     """The GRASP state: enabled (False: find-only, FOUND is terminal, as the exploration
     baselines are compared); target model, selection (`constrained=False` is the paper's
     ablation) and physics execution settings; moved_margin [m] added to the robot's spheres
-    along its executed way (its own space in the map), max_moved_configs of that way used."""
+    along its executed way (its own space in the map), max_moved_configs of that way used;
+    near_body_free: unknown voxels the arm's links 0-4 sweep near home count as free (an
+    assumption: a wrist camera never sees the space its own elbow moves through)."""
 
     enabled: bool = True
     target: TargetConfig = field(default_factory=TargetConfig)
@@ -53,6 +55,7 @@ class GraspTrialConfig:
     execute: GraspExecConfig = field(default_factory=GraspExecConfig)
     moved_margin: float = 0.02
     max_moved_configs: int = 400
+    near_body_free: bool = True
 
     def __post_init__(self) -> None:
         if not 0.0 <= self.moved_margin <= 0.1 or not 1 <= self.max_moved_configs <= 100000:

@@ -2,7 +2,9 @@
 
 The target model is built from the accepted detection's points (seen from its camera) fused
 with the method's own map; the grasp is selected against that map (`grasp.select`, the
-paper's Eq. 6, or its ablation) with the robot's executed way marked as its own space; the
+paper's Eq. 6, or its ablation) with the robot's executed way marked as its own space (and,
+with `near_body_free`, the unknown space the arm's links 0-4 sweep near home, the harness's
+stand-in for a near-field scan: `sim.grasp_only.near_body_unknown`); the
 selection is executed in the World's physics (`sim.grasp_exec`). Nothing here reads ground
 truth: the physics decides whether the lift worked, as the real robot's sensors would.
 The simulated clock advances by the selection (the trial's planning charge, or the measured
@@ -19,6 +21,7 @@ from ..grasp.select import GraspFailure, GraspSelection, select_grasp
 from ..grasp.target import build_target_model
 from ..robot.spheres import panda_sphere_model
 from ..sim.grasp_exec import ExecFailure, GraspOutcome, execute_grasp
+from ..sim.grasp_only import near_body_unknown
 from .result import TrialFailure
 
 _SELECT_FAILURE = {
@@ -83,7 +86,9 @@ def run_grasp_stage(world, occupancy, detection, task, q_current: np.ndarray, mo
         safe = (spheres.sphere_centers(Q).reshape(-1, 3), np.tile(spheres.radii + config.moved_margin, len(Q)))
     else:
         safe = None
-    sel = select_grasp(target, occupancy, task, q_current, spheres, config.select, rng, safe_spheres=safe)
+    extra = near_body_unknown(occupancy, spheres, np.asarray(world.robot.q_home)) if config.near_body_free else None
+    sel = select_grasp(target, occupancy, task, q_current, spheres, config.select, rng, safe_spheres=safe,
+                       extra_safe=extra)
     charge = sel.time_s if planning_charge_s is None else planning_charge_s
     if sel.failure is not None:
         return GraspStageResult(_SELECT_FAILURE[sel.failure], charge, sel, None, q_current, 0)
