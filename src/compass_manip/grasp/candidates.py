@@ -29,6 +29,13 @@ PALM_DEPTH = 0.035
 FINGER_HALF_WIDTH = 0.01
 #: Depth [m] below the target's top that a grasp's contact midpoint keeps (`top_margin`).
 TOP_MARGIN = 0.012
+#: Half the Panda hand's length [m] along the closing line and half its thickness across it.
+HAND_HALF_LENGTH = 0.11
+HAND_HALF_THICKNESS = 0.03
+#: How far [m] the fingertips reach past the TCP (pad centre) along the approach.
+FINGER_TIP = 0.01
+#: Margin [m] around the open fingers' sweep that must hold no target point.
+FINGER_SWEEP_MARGIN = 0.004
 #: Spacing [m] of the target points checked against the palm.
 PALM_POINT_SPACING = 0.008
 
@@ -179,9 +186,11 @@ def _perp_basis(y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def palm_clear(points: np.ndarray, T_world_tcp: np.ndarray, width: np.ndarray, chunk: int = 2048) -> np.ndarray:
-    """(M,) True where no target point lies between the fingers deeper than PALM_DEPTH
-    behind the TCP (it would be pushed by the palm, which the map cannot stop: the
-    target's own voxels are carved for the fingers). The points are thinned to
+    """(M,) True where no target point lies in front of the hand's body (HAND_HALF_LENGTH
+    along the closing line, HAND_HALF_THICKNESS across it) deeper than PALM_DEPTH behind
+    the TCP (it would be pushed by the palm, which the map cannot stop: the
+    target's own voxels are carved for the fingers), and none lies in the sweep of the open
+    fingers coming in along the approach (it would be pushed over). The points are thinned to
     PALM_POINT_SPACING (the region has 1 cm margins); each hand axis is one matrix product
     (points x candidates)."""
     out = np.ones(len(T_world_tcp), dtype=bool)
@@ -190,8 +199,13 @@ def palm_clear(points: np.ndarray, T_world_tcp: np.ndarray, width: np.ndarray, c
         T = T_world_tcp[a:a + chunk]
         t = T[:, :3, 3]
         loc = [P @ T[:, :3, k].T - np.sum(t * T[:, :3, k], axis=1)[None] for k in range(3)]  # (N, m) each
-        inside = (np.abs(loc[0]) <= FINGER_HALF_WIDTH + 0.01) & (np.abs(loc[1]) <= 0.5 * width[None, a:a + chunk] + 0.01)
-        out[a:a + chunk] = ~np.any(inside & (loc[2] < -PALM_DEPTH), axis=0)
+        inside = (np.abs(loc[0]) <= HAND_HALF_THICKNESS) & (np.abs(loc[1]) <= HAND_HALF_LENGTH)
+        palm = np.any(inside & (loc[2] < -PALM_DEPTH), axis=0)
+        # the open fingers come in along z: nothing of the target may lie in their sweep
+        ay = np.abs(loc[1])
+        sweep = (np.abs(loc[0]) <= FINGER_HALF_WIDTH + FINGER_SWEEP_MARGIN) & (loc[2] <= FINGER_TIP) & \
+                (ay >= 0.5 * GRIPPER_MAX_WIDTH - FINGER_SWEEP_MARGIN) & (ay <= 0.5 * GRIPPER_MAX_WIDTH + 0.02)
+        out[a:a + chunk] = ~(palm | np.any(sweep, axis=0))
     return out
 
 

@@ -10,8 +10,10 @@ the offset to it and half a grid diagonal) then loses at most one fine voxel dia
 the certified scenes leave around the hand. The hand (every link rigid with the TCP) is
 checked on it at the grasp, along the approach and along the lift (`hand_clear`) before
 any IK; configurations and straight edges use the whole robot on it, and the planned path
-to the pre-grasp (`plan`) keeps `plan_margin` more: a free-space ray grazing a board's edge
-can mark a voxel free that the board still reaches into.
+to the pre-grasp (`plan`) keeps `plan_margin` more (a free-space ray grazing a board's edge
+can mark a voxel free that the board still reaches into) and has the target itself, carved
+from the map for the fingers, back as an obstacle (`target_box`): the hand must not sweep
+through it on its way to the pre-grasp.
 """
 from __future__ import annotations
 
@@ -22,7 +24,7 @@ import numpy as np
 from ..geometry import make_T
 from ..mapping.distance import DistanceField
 from ..mapping.occupancy import OccupancyMap
-from ..motion.primitives import DistanceGrid
+from ..motion.primitives import DistanceGrid, PrimitiveSet
 from ..motion.validity import ValidityChecker, ValidityConfig
 from ..robot.spheres import SphereModel
 from .carve import grasp_unsafe, local_fine_field
@@ -67,6 +69,18 @@ def offset_pose(T: np.ndarray, along_approach: float = 0.0, up: float = 0.0) -> 
     return make_T(T[:3, :3], T[:3, 3] + along_approach * T[:3, 2] + np.array([0.0, 0.0, up]))
 
 
+def target_box(target: TargetModel, grow: float = 0.005) -> PrimitiveSet:
+    """The target model's box along its principal axes (seen and completed points), grown
+    by `grow` [m], as a primitive obstacle."""
+    R = np.array(target.axes, dtype=np.float64)
+    if np.linalg.det(R) < 0:
+        R[:, 2] = -R[:, 2]
+    proj = target.points @ R
+    lo, hi = proj.min(0), proj.max(0)
+    T = make_T(R, R @ (0.5 * (lo + hi)))
+    return PrimitiveSet.from_lists(boxes=[(T, 0.5 * (hi - lo) + grow)])
+
+
 def _hand_mask(spheres: SphereModel) -> np.ndarray:
     return np.isin(spheres.body_index, [spheres.link_names.index(k) for k in HAND_LINKS if k in spheres.link_names])
 
@@ -88,8 +102,8 @@ class GraspChecks:
         grid = DistanceGrid.from_distance_field(self.fine)
         vc = ValidityConfig(voxel_extent=config.voxel_extent)
         self.full = ValidityChecker(spheres, grid=grid, config=vc)
-        self.plan = ValidityChecker(spheres, grid=grid, config=ValidityConfig(voxel_extent=config.voxel_extent,
-                                                                              margin=config.plan_margin))
+        self.plan = ValidityChecker(spheres, grid=grid, obstacles=target_box(target),
+                                    config=ValidityConfig(voxel_extent=config.voxel_extent, margin=config.plan_margin))
 
     def valid(self, Q: np.ndarray) -> np.ndarray:
         """(N,) configurations free of the map and of self-collision."""
