@@ -27,15 +27,6 @@ from .target import TargetModel, thin
 PALM_DEPTH = 0.035
 #: Half the width [m] of the fingers across the closing line (x of the hand frame).
 FINGER_HALF_WIDTH = 0.01
-#: Depth [m] below the target's top that a grasp's contact midpoint keeps (`top_margin`).
-TOP_MARGIN = 0.012
-#: Half the Panda hand's length [m] along the closing line and half its thickness across it.
-HAND_HALF_LENGTH = 0.11
-HAND_HALF_THICKNESS = 0.03
-#: How far [m] the fingertips reach past the TCP (pad centre) along the approach.
-FINGER_TIP = 0.01
-#: Margin [m] around the open fingers' sweep that must hold no target point.
-FINGER_SWEEP_MARGIN = 0.004
 #: Spacing [m] of the target points checked against the palm.
 PALM_POINT_SPACING = 0.008
 
@@ -186,11 +177,9 @@ def _perp_basis(y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def palm_clear(points: np.ndarray, T_world_tcp: np.ndarray, width: np.ndarray, chunk: int = 2048) -> np.ndarray:
-    """(M,) True where no target point lies in front of the hand's body (HAND_HALF_LENGTH
-    along the closing line, HAND_HALF_THICKNESS across it) deeper than PALM_DEPTH behind
-    the TCP (it would be pushed by the palm, which the map cannot stop: the
-    target's own voxels are carved for the fingers), and none lies in the sweep of the open
-    fingers coming in along the approach (it would be pushed over). The points are thinned to
+    """(M,) True where no target point lies between the fingers deeper than PALM_DEPTH
+    behind the TCP (it would be pushed by the palm, which the map cannot stop: the
+    target's own voxels are carved for the fingers). The points are thinned to
     PALM_POINT_SPACING (the region has 1 cm margins); each hand axis is one matrix product
     (points x candidates)."""
     out = np.ones(len(T_world_tcp), dtype=bool)
@@ -199,21 +188,9 @@ def palm_clear(points: np.ndarray, T_world_tcp: np.ndarray, width: np.ndarray, c
         T = T_world_tcp[a:a + chunk]
         t = T[:, :3, 3]
         loc = [P @ T[:, :3, k].T - np.sum(t * T[:, :3, k], axis=1)[None] for k in range(3)]  # (N, m) each
-        inside = (np.abs(loc[0]) <= HAND_HALF_THICKNESS) & (np.abs(loc[1]) <= HAND_HALF_LENGTH)
-        palm = np.any(inside & (loc[2] < -PALM_DEPTH), axis=0)
-        # the open fingers come in along z: nothing of the target may lie in their sweep
-        ay = np.abs(loc[1])
-        sweep = (np.abs(loc[0]) <= FINGER_HALF_WIDTH + FINGER_SWEEP_MARGIN) & (loc[2] <= FINGER_TIP) & \
-                (ay >= 0.5 * GRIPPER_MAX_WIDTH - FINGER_SWEEP_MARGIN) & (ay <= 0.5 * GRIPPER_MAX_WIDTH + 0.02)
-        out[a:a + chunk] = ~(palm | np.any(sweep, axis=0))
+        inside = (np.abs(loc[0]) <= FINGER_HALF_WIDTH + 0.01) & (np.abs(loc[1]) <= 0.5 * width[None, a:a + chunk] + 0.01)
+        out[a:a + chunk] = ~np.any(inside & (loc[2] < -PALM_DEPTH), axis=0)
     return out
-
-
-def top_margin(points: np.ndarray) -> float:
-    """Depth [m] below the target's top that a grasp's contact midpoint keeps: the finger pads
-    (2 cm wide) then lie on the object, not half above it; a quarter of the height for a
-    flat target."""
-    return float(min(TOP_MARGIN, 0.25 * np.ptp(points[:, 2])))
 
 
 def first_contacts(points: np.ndarray, config: CandidateConfig, rng: np.random.Generator) -> np.ndarray:
@@ -222,8 +199,7 @@ def first_contacts(points: np.ndarray, config: CandidateConfig, rng: np.random.G
     shelf finds its free corridor above what stands around the target, and a grasp near
     the top lifts it out without sweeping its neighbours), the rest from all points."""
     n = min(config.n_contacts, len(points))
-    z = points[:, 2]
-    top = np.nonzero((z >= z.max() - config.top_band) & (z <= z.max() - top_margin(points)))[0]
+    top = np.nonzero(points[:, 2] >= points[:, 2].max() - config.top_band)[0]
     n_top = min(int(round(config.top_fraction * n)), len(top))
     a = rng.choice(top, size=n_top, replace=False) if n_top else np.zeros(0, np.int64)
     rest = np.setdiff1d(np.arange(len(points)), a)
@@ -255,8 +231,7 @@ def antipodal_candidates(target: TargetModel, config: CandidateConfig | None = N
                          rng: np.random.Generator | None = None, toward: np.ndarray | None = None,
                          max_angle: float | None = None) -> GraspCandidates:
     """Scored antipodal candidates on the target model (see the module doc). Only
-    force-closure pairs (s > 0) within the hand's opening, their midpoint at least
-    `top_margin` below the target's top, are returned. toward (3,) and
+    force-closure pairs (s > 0) within the hand's opening are returned. toward (3,) and
     max_angle [rad]: sample the approach rolls only within max_angle of toward (the
     constrained selection's cone around n), instead of all round the closing line."""
     config = config or CandidateConfig()
@@ -272,7 +247,7 @@ def antipodal_candidates(target: TargetModel, config: CandidateConfig | None = N
         return GraspCandidates.empty()
     p1, p2, n1, n2 = P[i], P[j], N[i], N[j]
     score = graspnet_score(p1, p2, n1, n2)
-    keep = (score > 0) & (0.5 * (p1[:, 2] + p2[:, 2]) <= P[:, 2].max() - top_margin(P))
+    keep = score > 0
     p1, p2, n1, n2, width, score = p1[keep], p2[keep], n1[keep], n2[keep], width[keep], score[keep]
     if len(p1) == 0:
         return GraspCandidates.empty()
