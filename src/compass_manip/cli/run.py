@@ -120,9 +120,11 @@ def save_trial(result_run, config, out: str) -> dict:
         overview = render_overview(world)
     finally:
         world.close()
+    grasped = r.found and r.grasp_s is not None
+    grasp_note = ", " + (r.failure.name.lower() if r.failure else "grasped") if grasped else ""
     title = (f"{r.method}, level {r.level} scene {r.scene} trial {r.trial}: "
              f"{'found at %.1f s' % r.tft_s if r.found else r.failure.name.lower()}"
-             f"{', ' + (r.failure.name.lower() if r.failure else 'grasped') if r.found and r.grasp_s is not None else ''}")
+             f"{grasp_note}")
     save_camera_path_png(result_run.scene, overview, result_run.outcome.camera_path, paths["camera_path"], title)
     save_explored_png(r.explored_curve, paths["explored"], r.tft_s if r.found else None,
                       config.time_limit_s)

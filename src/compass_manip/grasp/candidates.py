@@ -35,7 +35,8 @@ PALM_POINT_SPACING = 0.008
 class CandidateConfig:
     """n_contacts first contacts sampled; n_directions closing directions per first contact:
     the inward normal and n_directions - 1 drawn within `cone` [rad] of it (GraspNet labels
-    the whole spectrum of friction needs, not only perfect antipodal pairs); n_rolls approach directions per contact pair;
+    the whole spectrum of friction needs, not only perfect antipodal pairs); n_rolls
+    approach directions per contact pair;
     line_radius [m]: second-contact search radius around the closing line; width_clearance
     [m]: free opening beyond the contacts on each side (w + 2 clearance <= 0.08 m);
     min_width [m]; depths [m]: TCP offsets along the approach past the contact midpoint;
@@ -188,7 +189,8 @@ def palm_clear(points: np.ndarray, T_world_tcp: np.ndarray, width: np.ndarray, c
         T = T_world_tcp[a:a + chunk]
         t = T[:, :3, 3]
         loc = [P @ T[:, :3, k].T - np.sum(t * T[:, :3, k], axis=1)[None] for k in range(3)]  # (N, m) each
-        inside = (np.abs(loc[0]) <= FINGER_HALF_WIDTH + 0.01) & (np.abs(loc[1]) <= 0.5 * width[None, a:a + chunk] + 0.01)
+        inside = (np.abs(loc[0]) <= FINGER_HALF_WIDTH + 0.01) & \
+                 (np.abs(loc[1]) <= 0.5 * width[None, a:a + chunk] + 0.01)
         out[a:a + chunk] = ~np.any(inside & (loc[2] < -PALM_DEPTH), axis=0)
     return out
 

@@ -106,7 +106,8 @@ class GraspSelectConfig:
         if not 0.0 < self.max_approach_angle <= math.pi:
             raise CompassInputError(f"max_approach_angle {self.max_approach_angle} rad is not allowed; use (0, pi]")
         if not self.pregrasp_distances or not all(0.02 <= d <= 0.3 for d in self.pregrasp_distances):
-            raise CompassInputError(f"pregrasp_distances {self.pregrasp_distances} m not allowed; use values in 0.02..0.3 m")
+            raise CompassInputError(f"pregrasp_distances {self.pregrasp_distances} m not allowed; "
+                                    "use values in 0.02..0.3 m")
         if not self.lift_heights or not all(0.0 <= h <= 0.3 for h in self.lift_heights):
             raise CompassInputError(f"lift_heights {self.lift_heights} m not allowed; use values in 0..0.3 m")
         if not 0.0 <= self.clearance <= 0.1:
@@ -186,7 +187,8 @@ def gpq(score: float, ik_free: bool, angle: float) -> float:
     return float(score) * float(bool(ik_free)) * math.cos(angle)
 
 
-def base_volume(spheres: SphereModel, q_ref: np.ndarray, n_q1: int = 36, n_q2: int = 7) -> tuple[np.ndarray, np.ndarray]:
+def base_volume(spheres: SphereModel, q_ref: np.ndarray, n_q1: int = 36,
+                n_q2: int = 7) -> tuple[np.ndarray, np.ndarray]:
     """Spheres (centres (S,3) [m], radii (S,) [m]) of the links up to panda_link2 swept over
     joints 1 and 2: the robot's own space around its base column, which no camera on the
     wrist sees and nothing else can occupy (it would collide at home already)."""

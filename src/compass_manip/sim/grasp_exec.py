@@ -38,7 +38,8 @@ class ExecFailure(Enum):
 class GraspExecConfig:
     """velocity_scale of the Panda limits to the pre-grasp, approach_scale for the approach
     and lift; close_time / hold_time [s]; min_lift_fraction of the selection's commanded
-    lift the target must rise (after the lift and after the hold) for success; contact_depth [m]: penetration counted as a collision; check_every physics
+    lift the target must rise (after the lift and after the hold) for success; contact_depth
+    [m]: penetration counted as a collision; check_every physics
     steps between contact checks; settle [s] after each motion."""
 
     velocity_scale: float = 0.5

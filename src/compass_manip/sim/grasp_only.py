@@ -148,7 +148,8 @@ def oracle_view(world: World, rng: np.random.Generator, config: GraspOnlyConfig,
 
 def near_field_configs(world: World, rng: np.random.Generator, n: int) -> list[np.ndarray]:
     """Up to n wrist configurations around home (joints 5-7 uniform within their limits;
-    every other one with joints 1, 2 and 4 also moved a little), kept when free of ground-truth contact along the straight way from home
+    every other one with joints 1, 2 and 4 also moved a little), kept when free of
+    ground-truth contact along the straight way from home
     (the simulator stands in for the NFA scan's validity checks)."""
     q_home = np.asarray(world.robot.q_home)
     out = []

@@ -123,7 +123,8 @@ def run_trial_full(spec: TrialSpec, config: TrialConfig | None = None, progress=
     med, p90 = metrics.decision_ms()
     result = TrialResult(
         method=spec.method, level=spec.level, scene=spec.scene, trial=spec.trial, seed=spec.seed, failure=failure,
-        tft_s=t_find, pft_m=pft, mpsr=metrics.mpsr, am=metrics.am, gpq=None if g is None else g.gpq, collisions=metrics.collisions,
+        tft_s=t_find, pft_m=pft, mpsr=metrics.mpsr, am=metrics.am, gpq=None if g is None else g.gpq,
+        collisions=metrics.collisions,
         explored_curve=tuple(metrics.explored), decisions=metrics.decisions, planning_ms_median=med,
         planning_ms_p90=p90, wall_s=time.perf_counter() - wall0, true_detection=true_det,
         found=found, grasp_s=None if g is None else g.duration_s, lift_m=None if g is None else g.lift_m,
