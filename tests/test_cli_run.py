@@ -46,3 +46,12 @@ def test_grasp_only_rejects_find_only_and_out(capsys):
     assert main(["run", "--level", "1", "--scene", "0", "--grasp-only", "--find-only"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--grasp-only takes neither --find-only nor --out" in err[0]
+
+
+def test_grasp_only_prints_one_labelled_record(capsys):
+    assert main(["run", "--grasp-only", "--level", "1", "--scene", "1", "--json"]) == 0
+    rec = json.loads(capsys.readouterr().out)
+    assert rec["start"] == "oracle view (ground truth)" and rec["constrained"] is True
+    assert rec["level"] == 1 and rec["scene"] == 1 and rec["view_found"] is True and rec["n_target_points"] > 10
+    assert isinstance(rec["success"], bool) and rec["collisions"] == []
+    assert (rec["selection_failure"] is None) == (rec["commanded_lift_m"] is not None)
