@@ -92,3 +92,38 @@ def test_target_model_completes_a_half_seen_cylinder():
     assert best.any() and np.all(np.abs(cands.width[best] - 0.05) < 0.006)
     with pytest.raises(CompassInputError):
         build_target_model(pts[:5], cam)
+
+
+def test_approaches_sampled_in_the_cone_stay_in_it_and_cover_it():
+    import math
+
+    P, N = box_surface((0.02, 0.025, 0.06))
+    toward = np.array([math.cos(0.35), 0.0, -math.sin(0.35)])
+    delta = math.radians(50.0)
+    m = model(P, N)
+    cone = antipodal_candidates(m, CandidateConfig(n_contacts=80), np.random.default_rng(0), toward, delta)
+    ang = np.arccos(np.clip(cone.approach @ toward, -1.0, 1.0))
+    assert len(cone) > 100 and np.all(ang <= delta + 1e-9)
+    assert ang.max() > 0.8 * delta  # the rolls spread over the arc, not only its middle
+    every = antipodal_candidates(m, CandidateConfig(n_contacts=80), np.random.default_rng(0))
+    in_cone = np.arccos(np.clip(every.approach @ toward, -1.0, 1.0)) <= delta
+    assert np.count_nonzero(in_cone) < 0.5 * len(cone)  # all round, most rolls are wasted outside the cone
+    # a closing line along toward leaves no approach within a small cone
+    P2, N2 = box_surface((0.06, 0.02, 0.02))
+    none = antipodal_candidates(model(P2, N2), CandidateConfig(n_contacts=40, n_directions=1),
+                                np.random.default_rng(0), np.array([0.0, 1.0, 0.0]), math.radians(10.0))
+    assert len(none) == 0 or np.all(np.arccos(np.clip(none.approach[:, 1], -1, 1)) <= math.radians(10.0) + 1e-9)
+
+
+def test_first_contacts_favour_the_top_band():
+    from compass_manip.grasp.candidates import first_contacts
+
+    P, N = box_surface((0.02, 0.02, 0.10))
+    cfg = CandidateConfig(n_contacts=100, top_fraction=0.5, top_band=0.03)
+    idx = first_contacts(P, cfg, np.random.default_rng(0))
+    assert len(idx) == 100 and len(np.unique(idx)) == 100
+    top = P[idx, 2] >= P[:, 2].max() - 0.03
+    share = np.mean(P[:, 2] >= P[:, 2].max() - 0.03)
+    assert top.mean() >= 0.5 and share < 0.4  # at least half from the band, which holds far fewer points
+    with pytest.raises(CompassInputError, match="top_fraction"):
+        CandidateConfig(top_fraction=1.5)

@@ -6,6 +6,7 @@ import math
 import numpy as np
 import pytest
 
+from compass_manip.errors import CompassInputError
 from compass_manip.grasp.candidates import GraspCandidates, antipodal_candidates
 from compass_manip.grasp.select import (GraspFailure, GraspSelectConfig, Rejection, approach_angles,
                                         desired_approach, gpq, select_grasp)
@@ -50,7 +51,8 @@ def world():
 def test_desired_approach_enters_the_opening_tilted_down(world):
     occ, task, target = world
     n = desired_approach(target, task)
-    assert n[0] > 0.6 and n[2] < -0.6 and abs(n[1]) < 1e-9  # +x into the space, pitched 45 deg down
+    assert abs(n[0] - math.cos(math.radians(20))) < 1e-9 and abs(n[2] + math.sin(math.radians(20))) < 1e-9 \
+        and abs(n[1]) < 1e-9  # +x into the space, pitched 20 deg down
     assert gpq(0.8, True, 0.0) == pytest.approx(0.8) and gpq(0.8, False, 0.0) == 0.0
 
 
@@ -81,3 +83,35 @@ def test_the_box_under_the_board_is_grasped_from_the_side(world):
                        np.random.default_rng(0))
     assert Rejection.APPROACH_ANGLE not in off.rejections
     assert off.failure is GraspFailure.NO_PATH or off.score >= sel.score
+
+
+def test_the_fine_field_near_the_target_keeps_the_same_cubes_and_loses_less():
+    from compass_manip.grasp.carve import local_fine_field
+    from compass_manip.grasp.checks import hand_clear
+    from compass_manip.mapping.distance import DistanceField
+
+    occ = OccupancyMap(MapConfig())
+    occ.set_box(occ.grid_min, occ.grid_max, VoxelState.FREE)
+    occ.set_box(np.array([0.50, -0.05, 0.40]), np.array([0.52, 0.05, 0.50]), VoxelState.OCCUPIED)
+    unsafe = occ.state != VoxelState.FREE
+    coarse = DistanceField.from_unsafe(unsafe, occ.grid_min, occ.resolution)
+    fine = local_fine_field(unsafe, occ, np.array([0.3, -0.2, 0.3]), np.array([0.7, 0.2, 0.6]), 2)
+    assert fine.resolution == pytest.approx(0.005)
+    cubes = occ.grid_min + np.argwhere(unsafe) * occ.resolution  # min corners of the unsafe cubes
+    rng = np.random.default_rng(0)
+    p = np.array([0.51, 0.0, 0.45]) + rng.uniform(-0.08, 0.08, (300, 3))
+    gap = np.maximum(np.maximum(cubes[None] - p[:, None], p[:, None] - (cubes[None] + occ.resolution)), 0.0)
+    true = np.min(np.linalg.norm(gap, axis=2), axis=1)  # exact distance to the cubes
+    ident = np.broadcast_to(np.eye(4), (len(p), 4, 4)).copy()
+    ident[:, :3, 3] = p
+    bounds = []
+    for f in (coarse, fine):
+        # hand_clear with one sphere of radius r at each point: clear only if r <= the true distance
+        for r in (0.004, 0.012, 0.02):
+            ok = hand_clear(f, ident, (np.zeros((1, 3)), np.array([r])), voxel_extent=True)
+            assert np.all(true[ok] >= r - 1e-9)  # sound: never clear where a cube is nearer than r
+        ok = hand_clear(f, ident, (np.zeros((1, 3)), np.array([0.012])), voxel_extent=True)
+        bounds.append(ok.sum())
+    assert bounds[1] > bounds[0]  # the fine field clears more of the truly free points
+    with pytest.raises(CompassInputError, match="upsample"):
+        local_fine_field(unsafe, occ, p[0], p[0], 9)

@@ -1,13 +1,13 @@
-"""The trial end to end: a Level-1 COMPASS trial finds the target with no contact and a
-true detection; the same seed gives a bit-identical trial with the fixed planning charge;
-results carry the JSON keys of `compass run --json`."""
+"""The trial end to end: a find-only Level-1 COMPASS trial finds the target with no contact
+and a true detection; the same seed gives a bit-identical trial with the fixed planning
+charge; results carry the JSON keys of `compass run --json`. (The GRASP state: test_trial_grasp.py.)"""
 import json
 
 import numpy as np
 import pytest
 
 from compass_manip.errors import CompassInputError
-from compass_manip.trial.config import TrialConfig
+from compass_manip.trial.config import GraspTrialConfig, TrialConfig
 from compass_manip.trial.machine import TrialState
 from compass_manip.trial.result import TrialFailure
 from compass_manip.trial.runner import TrialSpec, check_spec, run_trial_full, trial_rng
@@ -15,18 +15,19 @@ from compass_manip.trial.runner import TrialSpec, check_spec, run_trial_full, tr
 SPEC = TrialSpec("compass", level=1, scene=1, trial=0, seed=0)
 KEYS = {"method", "level", "scene", "trial", "seed", "success", "failure", "tft_s", "pft_m", "mpsr", "am", "gpq",
         "collisions", "explored_curve", "decisions", "planning_ms_median", "planning_ms_p90", "wall_s",
-        "true_detection"}
+        "true_detection", "found", "grasp_s", "lift_m"}
+FIND_ONLY = GraspTrialConfig(enabled=False)
 
 
 @pytest.fixture(scope="module")
 def found():
-    return run_trial_full(SPEC)
+    return run_trial_full(SPEC, TrialConfig(grasp=FIND_ONLY))
 
 
 @pytest.fixture(scope="module")
 def runs():
     """Two short runs (12 s simulated) of one trial."""
-    config = TrialConfig(time_limit_s=12.0)
+    config = TrialConfig(time_limit_s=12.0, grasp=FIND_ONLY)
     spec = TrialSpec("compass", level=1, scene=3, trial=1, seed=0)
     return run_trial_full(spec, config), run_trial_full(spec, config)
 
@@ -39,7 +40,8 @@ def test_level1_trial_finds_the_target(found):
     assert 0 < r.tft_s < 200 and r.pft_m > 0 and r.decisions >= 1
     assert r.mpsr is not None and 0 < r.mpsr <= 1 and r.am > 0
     assert run.outcome.states[0] is TrialState.NFA and run.outcome.states[-1] is TrialState.DONE
-    assert TrialState.FOUND in run.outcome.states
+    assert TrialState.FOUND in run.outcome.states and TrialState.GRASP not in run.outcome.states
+    assert r.found and r.grasp_s is None and r.lift_m is None and run.outcome.grasp is None
     curve = np.array(r.explored_curve)
     assert np.all(np.diff(curve[:, 0]) >= 0) and np.all((curve[:, 1] >= 0) & (curve[:, 1] <= 1))
     d = r.to_dict()
@@ -73,4 +75,7 @@ def test_config_is_json_and_failures_are_named():
     assert json.loads(json.dumps(d)) == d
     assert d["clock"]["measured"] is False and d["method"]["nfa"]["enabled"] is True
     assert {f.name for f in TrialFailure} == {"NO_REACHABLE_VIEW", "PLANNING_FAILED", "TIME_LIMIT",
-                                              "TARGET_NOT_FOUND", "FALSE_DETECTION", "COLLISION"}
+                                              "TARGET_NOT_FOUND", "FALSE_DETECTION", "COLLISION",
+                                              "GRASP_NO_CANDIDATE", "GRASP_NO_IK", "GRASP_NO_PATH", "GRASP_COLLISION",
+                                              "GRASP_MISSED", "GRASP_SLIP", "GRASP_DROP"}
+    assert d["grasp"]["enabled"] is True and d["grasp"]["select"]["constrained"] is True

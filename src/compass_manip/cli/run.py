@@ -8,7 +8,7 @@ import sys
 from ..errors import CompassInputError
 from ..paths import check_output_dir, check_output_file
 
-HELP = "run one trial of an exploration method and print its metrics"
+HELP = "run one trial (find, then grasp) of an exploration method and print its metrics"
 
 
 def add_arguments(p) -> None:
@@ -24,6 +24,11 @@ def add_arguments(p) -> None:
                    help="write an MP4 of the trial on the simulated timeline (10 frames per simulated second)")
     p.add_argument("--record", default=None, metavar="PATH.rrd",
                    help="write a Rerun recording (needs the [viz] extra: rerun-sdk)")
+    p.add_argument("--find-only", action="store_true", help="stop at FOUND (no GRASP state)")
+    p.add_argument("--grasp-only", action="store_true",
+                   help="grasp alone: start from a view that sees the target (picked by the oracle)")
+    p.add_argument("--unconstrained", action="store_true",
+                   help="grasp selection without the paper's constraints (its ablation)")
 
 
 def check_out(out: str | None) -> str | None:
@@ -42,10 +47,12 @@ def check_media_path(path: str | None, option: str, suffix: str) -> str | None:
 
 
 def run_checked_trial(command: str, spec_args: tuple, time_limit: float, out: str | None,
-                      video: str | None = None, record: str | None = None):
+                      video: str | None = None, record: str | None = None,
+                      find_only: bool = False, constrained: bool = True):
     """Check a trial's spec, time limit [s], output folder, video and recording paths (and
     that rerun-sdk is installed for a recording) before any work, run it with a progress
-    line on stderr; returns (TrialRun, TrialConfig, output folder or None)."""
+    line on stderr; returns (TrialRun, TrialConfig, output folder or None).
+    find_only: no GRASP state; constrained False: the grasp selection's ablation."""
     from ..trial.runner import TrialSpec, check_spec
 
     spec = check_spec(TrialSpec(*spec_args))
@@ -58,11 +65,13 @@ def run_checked_trial(command: str, spec_args: tuple, time_limit: float, out: st
         from ..viz.rerun_log import require_rerun
 
         require_rerun()
-    from ..trial.config import TrialConfig
+    from ..grasp.select import GraspSelectConfig
+    from ..trial.config import GraspTrialConfig, TrialConfig
     from ..trial.observer import ObserverGroup
     from ..trial.runner import run_trial_full
 
-    config = TrialConfig(time_limit_s=time_limit)
+    grasp = GraspTrialConfig(enabled=not find_only, select=GraspSelectConfig(constrained=constrained))
+    config = TrialConfig(time_limit_s=time_limit, grasp=grasp)
     title = f"{spec.method} L{spec.level} s{spec.scene} t{spec.trial}"
     observers = []
     if video is not None:
@@ -84,10 +93,39 @@ def run_checked_trial(command: str, spec_args: tuple, time_limit: float, out: st
     return result_run, config, out
 
 
+def run_grasp_only(args) -> int:
+    """`--grasp-only`: the grasp-only harness on the certified scene (oracle start view)."""
+    from ..grasp.select import GraspSelectConfig
+    from ..sim.certify import certified_scene
+    from ..sim.grasp_only import GraspOnlyConfig, run_grasp_only as harness
+    from ..sim.levels import check_level
+    from ..trial.runner import TrialSpec, check_spec
+
+    if args.find_only or args.out is not None:
+        raise CompassInputError("--grasp-only takes neither --find-only nor --out")
+    check_level(args.level)
+    spec = check_spec(TrialSpec("compass", args.level, args.scene, args.trial, args.seed))
+    scene = certified_scene(spec.level, spec.scene, spec.seed).scene
+    print(f"compass run --grasp-only: level {spec.level} scene {spec.scene} trial {spec.trial} seed {spec.seed} "
+          f"(start view chosen by the oracle)", file=sys.stderr)
+    config = GraspOnlyConfig(select=GraspSelectConfig(constrained=not args.unconstrained))
+    record = {"level": spec.level, "scene": spec.scene, "trial": spec.trial, "seed": spec.seed,
+              "constrained": not args.unconstrained, **harness(scene, config, seed=spec.trial).to_dict()}
+    if args.json:
+        print(json.dumps(record))
+    else:
+        for k, v in record.items():
+            print(f"{k:>20}: {v}")
+    return 0
+
+
 def run(args) -> int:
+    if args.grasp_only:
+        return run_grasp_only(args)
     result_run, config, out = run_checked_trial(
         "run", (args.method, args.level, args.scene, args.trial, args.seed), args.time_limit, args.out,
-        video=args.video, record=args.record)
+        video=args.video, record=args.record,
+        find_only=args.find_only, constrained=not args.unconstrained)
     record = result_run.result.to_dict()
     if out is not None:
         save_trial(result_run, config, out)
@@ -120,9 +158,12 @@ def save_trial(result_run, config, out: str) -> dict:
         overview = render_overview(world)
     finally:
         world.close()
+    grasped = r.found and r.grasp_s is not None
+    grasp_note = ", " + (r.failure.name.lower() if r.failure else "grasped") if grasped else ""
     title = (f"{r.method}, level {r.level} scene {r.scene} trial {r.trial}: "
-             f"{'found at %.1f s' % r.tft_s if r.success else r.failure.name.lower()}")
+             f"{'found at %.1f s' % r.tft_s if r.found else r.failure.name.lower()}"
+             f"{grasp_note}")
     save_camera_path_png(result_run.scene, overview, result_run.outcome.camera_path, paths["camera_path"], title)
-    save_explored_png(r.explored_curve, paths["explored"], r.tft_s if r.success else None,
+    save_explored_png(r.explored_curve, paths["explored"], r.tft_s if r.found else None,
                       config.time_limit_s)
     return {k: os.path.abspath(v) for k, v in paths.items()}

@@ -19,25 +19,28 @@ from typing import Protocol
 import numpy as np
 
 from ..errors import CompassInputError
-from ..geometry import make_T
 from ..robot.model import GRIPPER_MAX_WIDTH
 from .quality import graspnet_score
-from .target import TargetModel
+from .target import TargetModel, thin
 
 #: Length [m] of the Panda fingers from the TCP (pad centre) back to the palm, less a margin.
 PALM_DEPTH = 0.035
 #: Half the width [m] of the fingers across the closing line (x of the hand frame).
 FINGER_HALF_WIDTH = 0.01
+#: Spacing [m] of the target points checked against the palm.
+PALM_POINT_SPACING = 0.008
 
 
 @dataclass(frozen=True)
 class CandidateConfig:
     """n_contacts first contacts sampled; n_directions closing directions per first contact:
     the inward normal and n_directions - 1 drawn within `cone` [rad] of it (GraspNet labels
-    the whole spectrum of friction needs, not only perfect antipodal pairs); n_rolls approach directions per contact pair;
+    the whole spectrum of friction needs, not only perfect antipodal pairs); n_rolls
+    approach directions per contact pair;
     line_radius [m]: second-contact search radius around the closing line; width_clearance
     [m]: free opening beyond the contacts on each side (w + 2 clearance <= 0.08 m);
-    min_width [m]; depths [m]: TCP offsets along the approach past the contact midpoint."""
+    min_width [m]; depths [m]: TCP offsets along the approach past the contact midpoint;
+    top_fraction of the first contacts drawn within top_band [m] of the target's top."""
 
     n_contacts: int = 120
     n_directions: int = 4
@@ -47,6 +50,8 @@ class CandidateConfig:
     width_clearance: float = 0.006
     min_width: float = 0.01
     depths: tuple[float, ...] = (0.0,)
+    top_fraction: float = 0.5
+    top_band: float = 0.05
 
     def __post_init__(self) -> None:
         if not 1 <= self.n_directions <= 100 or not 0.0 <= self.cone < np.pi / 2:
@@ -55,6 +60,9 @@ class CandidateConfig:
         if not 1 <= self.n_contacts <= 100000 or not 1 <= self.n_rolls <= 360:
             raise CompassInputError(f"n_contacts {self.n_contacts} / n_rolls {self.n_rolls} not allowed; "
                                     "use 1..100000 and 1..360")
+        if not 0.0 <= self.top_fraction <= 1.0 or not 0.0 < self.top_band <= 1.0:
+            raise CompassInputError(f"top_fraction {self.top_fraction} / top_band {self.top_band} m not allowed; "
+                                    "use 0..1 and (0, 1] m")
         if not 0.0 <= 2 * self.width_clearance + self.min_width < GRIPPER_MAX_WIDTH:
             raise CompassInputError(f"min_width {self.min_width} m + 2 x width_clearance {self.width_clearance} m "
                                     f"must stay below the hand's opening {GRIPPER_MAX_WIDTH} m")
@@ -100,9 +108,13 @@ class GraspCandidates:
 class GraspProposer(Protocol):
     """The plug-in point for a learned grasp network (GraspNet, Contact-GraspNet, ...):
     anything that turns a target model into scored candidates. A network's own scores may
-    be kept, or its contacts re-scored with `quality.graspnet_score` for comparability."""
+    be kept, or its contacts re-scored with `quality.graspnet_score` for comparability.
+    toward (3,) / max_angle [rad] (optional keywords; the selection passes them when the
+    proposer's `propose` accepts `toward`): only approaches within max_angle of toward are
+    wanted (a proposer may return others; the selection filters them)."""
 
-    def propose(self, target: TargetModel, rng: np.random.Generator) -> GraspCandidates: ...
+    def propose(self, target: TargetModel, rng: np.random.Generator,
+                toward: np.ndarray | None = None, max_angle: float | None = None) -> GraspCandidates: ...
 
 
 class AntipodalProposer:
@@ -111,8 +123,9 @@ class AntipodalProposer:
     def __init__(self, config: CandidateConfig | None = None):
         self.config = config or CandidateConfig()
 
-    def propose(self, target: TargetModel, rng: np.random.Generator) -> GraspCandidates:
-        return antipodal_candidates(target, self.config, rng)
+    def propose(self, target: TargetModel, rng: np.random.Generator,
+                toward: np.ndarray | None = None, max_angle: float | None = None) -> GraspCandidates:
+        return antipodal_candidates(target, self.config, rng, toward, max_angle)
 
 
 def contact_pairs(points: np.ndarray, normals: np.ndarray, first: np.ndarray, config: CandidateConfig,
@@ -164,27 +177,70 @@ def _perp_basis(y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return e1, np.cross(y, e1)
 
 
-def palm_clear(points: np.ndarray, T_world_tcp: np.ndarray, width: np.ndarray) -> np.ndarray:
+def palm_clear(points: np.ndarray, T_world_tcp: np.ndarray, width: np.ndarray, chunk: int = 2048) -> np.ndarray:
     """(M,) True where no target point lies between the fingers deeper than PALM_DEPTH
     behind the TCP (it would be pushed by the palm, which the map cannot stop: the
-    target's own voxels are carved for the fingers)."""
+    target's own voxels are carved for the fingers). The points are thinned to
+    PALM_POINT_SPACING (the region has 1 cm margins); each hand axis is one matrix product
+    (points x candidates)."""
     out = np.ones(len(T_world_tcp), dtype=bool)
-    for m, T in enumerate(T_world_tcp):
-        loc = (points - T[:3, 3]) @ T[:3, :3]
-        inside = (np.abs(loc[:, 0]) <= FINGER_HALF_WIDTH + 0.01) & (np.abs(loc[:, 1]) <= 0.5 * width[m] + 0.01)
-        out[m] = not np.any(inside & (loc[:, 2] < -PALM_DEPTH))
+    P = thin(np.asarray(points, dtype=np.float64), PALM_POINT_SPACING)
+    for a in range(0, len(T_world_tcp), chunk):
+        T = T_world_tcp[a:a + chunk]
+        t = T[:, :3, 3]
+        loc = [P @ T[:, :3, k].T - np.sum(t * T[:, :3, k], axis=1)[None] for k in range(3)]  # (N, m) each
+        inside = (np.abs(loc[0]) <= FINGER_HALF_WIDTH + 0.01) & \
+                 (np.abs(loc[1]) <= 0.5 * width[None, a:a + chunk] + 0.01)
+        out[a:a + chunk] = ~np.any(inside & (loc[2] < -PALM_DEPTH), axis=0)
     return out
 
 
+def first_contacts(points: np.ndarray, config: CandidateConfig, rng: np.random.Generator) -> np.ndarray:
+    """Indices of the first contacts: `top_fraction` of n_contacts drawn from the points
+    within `top_band` [m] of the target's highest point (a hand reaching into a cluttered
+    shelf finds its free corridor above what stands around the target, and a grasp near
+    the top lifts it out without sweeping its neighbours), the rest from all points."""
+    n = min(config.n_contacts, len(points))
+    top = np.nonzero(points[:, 2] >= points[:, 2].max() - config.top_band)[0]
+    n_top = min(int(round(config.top_fraction * n)), len(top))
+    a = rng.choice(top, size=n_top, replace=False) if n_top else np.zeros(0, np.int64)
+    rest = np.setdiff1d(np.arange(len(points)), a)
+    b = rng.choice(rest, size=min(n - n_top, len(rest)), replace=False)
+    return np.concatenate([a, b]).astype(np.int64)
+
+
+def approach_rolls(e1: np.ndarray, e2: np.ndarray, y: np.ndarray, n_rolls: int,
+                   toward: np.ndarray | None = None, max_angle: float | None = None) -> np.ndarray:
+    """(K, n_rolls) roll angles [rad] of the approach a = cos(r) e1 + sin(r) e2 about each
+    closing line y (K,3): all round, or (toward, max_angle given) spread evenly over the arc
+    whose approaches lie within max_angle of toward; NaN where no approach does."""
+    K = len(y)
+    if toward is None or max_angle is None:
+        return np.tile(np.arange(n_rolls) * (2 * np.pi / n_rolls), (K, 1))
+    t = np.asarray(toward, dtype=np.float64)
+    t = t / np.linalg.norm(t)
+    c1, c2 = e1 @ t, e2 @ t
+    reach = np.hypot(c1, c2)  # cos of the smallest angle to toward on the circle
+    r0 = np.arctan2(c2, c1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        half = np.arccos(np.clip(np.cos(max_angle) / np.maximum(reach, 1e-12), -1.0, 1.0))
+    half = np.where(reach >= np.cos(max_angle), half, np.nan)
+    f = (np.arange(n_rolls) + 0.5) / n_rolls * 2.0 - 1.0 if n_rolls > 1 else np.zeros(1)
+    return r0[:, None] + half[:, None] * f[None]
+
+
 def antipodal_candidates(target: TargetModel, config: CandidateConfig | None = None,
-                         rng: np.random.Generator | None = None) -> GraspCandidates:
+                         rng: np.random.Generator | None = None, toward: np.ndarray | None = None,
+                         max_angle: float | None = None) -> GraspCandidates:
     """Scored antipodal candidates on the target model (see the module doc). Only
-    force-closure pairs (s > 0) within the hand's opening are returned."""
+    force-closure pairs (s > 0) within the hand's opening are returned. toward (3,) and
+    max_angle [rad]: sample the approach rolls only within max_angle of toward (the
+    constrained selection's cone around n), instead of all round the closing line."""
     config = config or CandidateConfig()
     if rng is None:
         raise CompassInputError("antipodal_candidates needs an explicit np.random.Generator (rng)")
     P, N = target.points, target.normals
-    first = rng.choice(len(P), size=min(config.n_contacts, len(P)), replace=False)
+    first = first_contacts(P, config, rng)
     first, dirs = closing_directions(N, first, config, rng)
     partner, width = contact_pairs(P, N, first, config, dirs)
     ok = (partner >= 0) & (width <= config.max_width)
@@ -200,18 +256,28 @@ def antipodal_candidates(target: TargetModel, config: CandidateConfig | None = N
     y = (p2 - p1) / width[:, None]
     e1, e2 = _perp_basis(y)
     mid = 0.5 * (p1 + p2)
-    rolls = np.arange(config.n_rolls) * (2 * np.pi / config.n_rolls)
+    rolls = approach_rolls(e1, e2, y, config.n_rolls, toward, max_angle)  # (K, R)
+    K, R = rolls.shape
+    kk = np.repeat(np.arange(K), R)
+    r = rolls.reshape(-1)
+    good = np.isfinite(r)
+    kk, r = kk[good], r[good]
+    a = np.cos(r)[:, None] * e1[kk] + np.sin(r)[:, None] * e2[kk]
     Ts, idx = [], []
-    for k in range(len(p1)):
-        for r in rolls:
-            a = np.cos(r) * e1[k] + np.sin(r) * e2[k]
-            for sign in (1.0, -1.0):  # the hand is symmetric, its wrist camera is not
-                yk = sign * y[k]
-                for d in config.depths:
-                    Ts.append(make_T(np.column_stack([np.cross(yk, a), yk, a]), mid[k] + d * a))
-                    idx.append(k)
-    T = np.array(Ts)
-    idx = np.array(idx)
+    for sign in (1.0, -1.0):  # the hand is symmetric, its wrist camera is not
+        yk = sign * y[kk]
+        Rm = np.stack([np.cross(yk, a), yk, a], axis=-1)
+        for d in config.depths:
+            T = np.zeros((len(kk), 4, 4))
+            T[:, :3, :3] = Rm
+            T[:, :3, 3] = mid[kk] + d * a
+            T[:, 3, 3] = 1.0
+            Ts.append(T)
+            idx.append(kk)
+    if not Ts or sum(len(t) for t in Ts) == 0:
+        return GraspCandidates.empty()
+    T = np.concatenate(Ts)
+    idx = np.concatenate(idx)
     clear = palm_clear(P, T, width[idx])
     T, idx = T[clear], idx[clear]
     return GraspCandidates(T, width[idx], score[idx], p1[idx], p2[idx], n1[idx], n2[idx])

@@ -15,7 +15,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
-from ..mapping.distance import DistanceField
+from ..errors import CompassInputError
+from ..mapping.distance import DistanceField, unsafe_mask
 from ..mapping.occupancy import OccupancyMap, VoxelState
 from .target import TargetModel
 
@@ -48,12 +49,39 @@ def target_carve(occ: OccupancyMap, target: TargetModel, clearance: float) -> np
     return mask
 
 
-def grasp_field(occ: OccupancyMap, target: TargetModel, clearance: float,
-                safe_spheres: tuple[np.ndarray, np.ndarray] | None = None,
-                extra_safe: np.ndarray | None = None) -> DistanceField:
-    """Distance field of unsafe space with the target carved (and the robot's own volume,
-    `safe_spheres` = (centres (S,3) [m], radii (S,) [m]), and any `extra_safe` voxels)."""
+def grasp_unsafe(occ: OccupancyMap, target: TargetModel, clearance: float,
+                 safe_spheres: tuple[np.ndarray, np.ndarray] | None = None,
+                 extra_safe: np.ndarray | None = None) -> np.ndarray:
+    """(nx, ny, nz) bool: unsafe space (unknown or occupied) less the target's carve, the
+    robot's own volume (`safe_spheres` = (centres (S,3) [m], radii (S,) [m])) and any
+    `extra_safe` voxels."""
     carve = target_carve(occ, target, clearance)
     if extra_safe is not None:
         carve |= np.asarray(extra_safe, dtype=bool)
-    return DistanceField.from_map(occ, safe_voxels=carve, safe_spheres=safe_spheres)
+    return unsafe_mask(occ, safe_voxels=carve, safe_spheres=safe_spheres)
+
+
+def grasp_field(occ: OccupancyMap, target: TargetModel, clearance: float,
+                safe_spheres: tuple[np.ndarray, np.ndarray] | None = None,
+                extra_safe: np.ndarray | None = None) -> DistanceField:
+    """Distance field of `grasp_unsafe` on the map's grid."""
+    return DistanceField.from_unsafe(grasp_unsafe(occ, target, clearance, safe_spheres, extra_safe),
+                                     occ.grid_min, occ.resolution)
+
+
+def local_fine_field(unsafe: np.ndarray, occ: OccupancyMap, lo: np.ndarray, hi: np.ndarray,
+                     upsample: int) -> DistanceField:
+    """The distance field of the unsafe mask (map grid) in the box lo..hi (3,) [m], on a grid
+    `upsample` times finer: each unsafe voxel is split into upsample^3 unsafe sub-voxels (the
+    same cubes), so a checker's bound loses half a fine voxel diagonal instead of half a map
+    voxel diagonal. Unsafe voxels outside the box are not seen by the field (it is meant for
+    points well inside the box); points outside the box are unsafe."""
+    if isinstance(upsample, bool) or not isinstance(upsample, int) or not 1 <= upsample <= 4:
+        raise CompassInputError(f"upsample {upsample!r} is not allowed; use an integer 1..4")
+    shape = np.asarray(unsafe.shape)
+    a = np.clip(occ.world_to_voxel(np.asarray(lo, dtype=np.float64)[None])[0], 0, shape - 1)
+    b = np.clip(occ.world_to_voxel(np.asarray(hi, dtype=np.float64)[None])[0], 0, shape - 1) + 1
+    sub = unsafe[a[0]:b[0], a[1]:b[1], a[2]:b[2]]
+    fine = sub.repeat(upsample, 0).repeat(upsample, 1).repeat(upsample, 2)
+    origin = occ.grid_min + a * occ.resolution
+    return DistanceField.from_unsafe(fine, origin, occ.resolution / upsample)

@@ -19,6 +19,7 @@ not checked.
 """
 from __future__ import annotations
 
+import inspect
 import math
 import time
 from collections import Counter
@@ -28,7 +29,6 @@ from enum import Enum
 import numpy as np
 
 from ..errors import CompassInputError
-from ..geometry import make_T
 from ..mapping.distance import DistanceField
 from ..mapping.occupancy import OccupancyMap, VoxelState
 from ..motion.planner import PlannerConfig, plan
@@ -40,6 +40,7 @@ from ..robot.spheres import SphereModel
 from ..task import Task
 from .candidates import AntipodalProposer, CandidateConfig, GraspCandidates, GraspProposer
 from .carve import grasp_field
+from .checks import GraspChecks, hand_clear, offset_pose, rigid_hand_spheres  # noqa: F401 (re-exported)
 from .target import TargetModel
 
 
@@ -71,35 +72,44 @@ class GraspFailure(Enum):
 @dataclass(frozen=True)
 class GraspSelectConfig:
     """constrained: apply Eq. 6's constraints (False: the paper's ablation); max_approach_angle
-    delta [rad]; pregrasp_distance [m] back along the approach; lift_height [m]; clearance [m]
+    delta [rad]; pregrasp_distances [m] back along the approach and lift_heights [m], each
+    tried in order per candidate (the first free one is taken: a shelf board above the
+    target may leave less than the full lift, and unseen space behind an occluder may
+    leave less than the full pre-grasp); clearance [m]
     of the target carve; robot_clearance [m] added to the robot's spheres at q_current when
     its own volume is marked safe; n_q7 IK samples; max_ik_solutions tried per candidate;
     max_feasible feasible candidates gathered before planning; max_checked candidates checked
     at most; max_joint_step [rad] between grasp and pre-grasp/lift configurations (a straight
     approach); voxel_extent: unsafe voxels are cubes (the checker subtracts half a voxel
-    diagonal) rather than points at their centres; planner: settings of the path to the pre-grasp."""
+    diagonal) rather than points at their centres; field_upsample: the checked field's grid
+    near the target is this many times finer than the map's (`checks.GraspChecks`); plan_margin
+    [m] kept by the planned path to the pre-grasp; planner: settings of that path."""
 
     constrained: bool = True
     max_approach_angle: float = math.radians(50.0)
-    pregrasp_distance: float = 0.10
-    lift_height: float = 0.10
+    pregrasp_distances: tuple[float, ...] = (0.10, 0.06)
+    lift_heights: tuple[float, ...] = (0.10, 0.07, 0.04)
     clearance: float = 0.055
     robot_clearance: float = 0.02
-    n_q7: int = 8
+    n_q7: int = 24
     max_ik_solutions: int = 3
     max_feasible: int = 4
     max_checked: int = 60
     max_joint_step: float = 0.6
     voxel_extent: bool = True
+    field_upsample: int = 2
+    plan_margin: float = 0.005
     candidates: CandidateConfig = field(default_factory=CandidateConfig)
     planner: PlannerConfig = field(default_factory=lambda: PlannerConfig(time_budget=0.5))
 
     def __post_init__(self) -> None:
         if not 0.0 < self.max_approach_angle <= math.pi:
             raise CompassInputError(f"max_approach_angle {self.max_approach_angle} rad is not allowed; use (0, pi]")
-        if not 0.02 <= self.pregrasp_distance <= 0.3 or not 0.0 <= self.lift_height <= 0.3:
-            raise CompassInputError(f"pregrasp_distance {self.pregrasp_distance} m / lift_height {self.lift_height} m "
-                                    "not allowed; use 0.02..0.3 m and 0..0.3 m")
+        if not self.pregrasp_distances or not all(0.02 <= d <= 0.3 for d in self.pregrasp_distances):
+            raise CompassInputError(f"pregrasp_distances {self.pregrasp_distances} m not allowed; "
+                                    "use values in 0.02..0.3 m")
+        if not self.lift_heights or not all(0.0 <= h <= 0.3 for h in self.lift_heights):
+            raise CompassInputError(f"lift_heights {self.lift_heights} m not allowed; use values in 0..0.3 m")
         if not 0.0 <= self.clearance <= 0.1:
             raise CompassInputError(f"clearance {self.clearance} m is not allowed; use 0..0.1 m")
         if not 1 <= self.max_feasible <= 100 or not 1 <= self.max_checked <= 100000:
@@ -111,7 +121,8 @@ class GraspSelection:
     """The selected grasp and how it was found.
 
     T_world_tcp (4,4), width [m] and score s of the chosen candidate (None on failure);
-    q_grasp, q_pregrasp, q_lift (7,) [rad]; path (n,7) [rad] from q_current to q_pregrasp;
+    q_grasp, q_pregrasp, q_lift (7,) [rad]; pregrasp_distance / lift_height [m] of the
+    chosen pre-grasp and lift (0 on failure); path (n,7) [rad] from q_current to q_pregrasp;
     approach_angle [rad] between z_g and n; ik_free: q_grasp is free in the map;
     gpq = s * 1[ik_free] * cos(approach_angle); n desired approach; n_candidates proposed;
     rejections: count per `Rejection`; time_s selection wall time [s] (plan_time_s of it
@@ -133,13 +144,15 @@ class GraspSelection:
     time_s: float
     plan_time_s: float
     failure: GraspFailure | None
+    pregrasp_distance: float = 0.0
+    lift_height: float = 0.0
 
     @property
     def success(self) -> bool:
         return self.failure is None
 
 
-def desired_approach(target: TargetModel, task: Task, tilt: float = math.radians(45.0),
+def desired_approach(target: TargetModel, task: Task, tilt: float = math.radians(20.0),
                      elongation: float = 1.3) -> np.ndarray:
     """Unit approach direction n from the confined space's opening and the target's axes.
 
@@ -174,7 +187,8 @@ def gpq(score: float, ik_free: bool, angle: float) -> float:
     return float(score) * float(bool(ik_free)) * math.cos(angle)
 
 
-def base_volume(spheres: SphereModel, q_ref: np.ndarray, n_q1: int = 36, n_q2: int = 7) -> tuple[np.ndarray, np.ndarray]:
+def base_volume(spheres: SphereModel, q_ref: np.ndarray, n_q1: int = 36,
+                n_q2: int = 7) -> tuple[np.ndarray, np.ndarray]:
     """Spheres (centres (S,3) [m], radii (S,) [m]) of the links up to panda_link2 swept over
     joints 1 and 2: the robot's own space around its base column, which no camera on the
     wrist sees and nothing else can occupy (it would collide at home already)."""
@@ -187,88 +201,6 @@ def base_volume(spheres: SphereModel, q_ref: np.ndarray, n_q1: int = 36, n_q2: i
     Q[:, 1] = np.tile(q2, n_q1)
     C = spheres.sphere_centers(Q)[:, keep]
     return C.reshape(-1, 3), np.tile(spheres.radii[keep] + 0.02, len(Q))
-
-
-def rigid_hand_spheres(spheres: SphereModel) -> tuple[np.ndarray, np.ndarray]:
-    """Spheres of the links rigid with the TCP (link7, flange, hand, camera housing, open
-    fingers) in the TCP frame: (centres (K,3) [m], radii (K,) [m]). They let a grasp pose
-    be checked against the map before any IK is solved."""
-    names = ("panda_link7", "panda_link8", "hand/panda_hand", "hand/panda_leftfinger", "hand/panda_rightfinger")
-    keep = np.isin(spheres.body_index, [spheres.link_names.index(k) for k in names if k in spheres.link_names])
-    q = np.array([0.0, -0.3, 0.0, -2.2, 0.0, 2.0, 0.785])
-    C = spheres.sphere_centers(q[None])[0][keep]
-    T = spheres.kinematics.T_world_tcp(q)
-    return (C - T[:3, 3]) @ T[:3, :3], spheres.radii[keep].copy()
-
-
-def hand_clear(field: DistanceField, T_world_tcp: np.ndarray, local: tuple[np.ndarray, np.ndarray],
-               voxel_extent: bool = True) -> np.ndarray:
-    """(M,) True where every rigid hand sphere at each TCP pose (M,4,4) clears unsafe space,
-    with the validity checker's conservative bound (nearest voxel centre, its offset and
-    half a voxel diagonal subtracted)."""
-    C, r = local
-    W = np.einsum("mij,kj->mki", T_world_tcp[:, :3, :3], C) + T_world_tcp[:, None, :3, 3]
-    res = field.resolution
-    f = (W - field.grid_min) / res - 0.5
-    i = np.floor(f + 0.5).astype(np.int64)
-    shape = np.asarray(field.distances.shape)
-    inside = np.all((i >= 0) & (i < shape), axis=-1)
-    ic = np.clip(i, 0, shape - 1)
-    d = field.distances[ic[..., 0], ic[..., 1], ic[..., 2]]
-    half = 0.5 * math.sqrt(3.0) * res if voxel_extent else 0.0
-    clear = d - np.linalg.norm(f - i, axis=-1) * res - half - r
-    return np.all(inside & (clear >= 0.0), axis=1)
-
-
-def offset_pose(T: np.ndarray, along_approach: float = 0.0, up: float = 0.0) -> np.ndarray:
-    """T moved by along_approach [m] along its z and by up [m] along world z."""
-    return make_T(T[:3, :3], T[:3, 3] + along_approach * T[:3, 2] + np.array([0.0, 0.0, up]))
-
-
-class _Checks:
-    """Per-selection context: checker, field, IK, target, config."""
-
-    def __init__(self, checker, field_, ik, target, config):
-        self.checker, self.field, self.ik, self.target, self.config = checker, field_, ik, target, config
-
-    def held_target_clear(self) -> bool:
-        """The target's points stay in safe space all along the lift (1 cm steps)."""
-        config = self.config
-        steps = np.arange(0.0, config.lift_height + 1e-9, 0.01)[1:]
-        if len(steps) == 0:
-            return True
-        pts = (self.target.points[None] + steps[:, None, None] * np.array([0.0, 0.0, 1.0])).reshape(-1, 3)
-        return bool(np.all(self.field.distance_at(pts) >= 0.5 * self.field.resolution))
-
-    def near(self, T: np.ndarray, q_ref: np.ndarray, validity) -> np.ndarray | None:
-        r = self.ik.solve(T, "tcp", q_ref, self.config.n_q7, validity, retry=False)
-        if not r.success or np.max(np.abs(r.solutions[0] - q_ref)) > self.config.max_joint_step:
-            return None
-        return r.solutions[0]
-
-    def check(self, T: np.ndarray, q_current: np.ndarray, lift_clear: bool):
-        """(q_grasp, q_pregrasp, q_lift) for one candidate pose, or (None, rejection)."""
-        config, chk = self.config, self.checker
-        r = self.ik.solve(T, "tcp", q_current, config.n_q7, None)
-        if not r.success:
-            return None, Rejection.NO_IK
-        free = chk.are_valid(r.solutions)
-        if not free.any():
-            return None, Rejection.IK_IN_COLLISION
-        reason = Rejection.PREGRASP_BLOCKED
-        for q_g in r.solutions[free][: config.max_ik_solutions]:
-            q_pre = self.near(offset_pose(T, -config.pregrasp_distance), q_g, chk)
-            if q_pre is None:
-                continue
-            if not chk.edge_valid(q_pre, q_g):
-                reason = Rejection.APPROACH_BLOCKED
-                continue
-            q_lift = self.near(offset_pose(T, up=config.lift_height), q_g, chk)
-            if q_lift is None or not lift_clear or not chk.edge_valid(q_g, q_lift):
-                reason = Rejection.LIFT_BLOCKED
-                continue
-            return (q_g, q_pre, q_lift), None
-        return None, reason
 
 
 def select_grasp(target: TargetModel, occ: OccupancyMap, task: Task, q_current: np.ndarray,
@@ -299,13 +231,18 @@ def select_grasp(target: TargetModel, occ: OccupancyMap, task: Task, q_current: 
     if safe_spheres is not None:
         safe_c = np.vstack([safe_c, np.asarray(safe_spheres[0]).reshape(-1, 3)])
         safe_r = np.r_[safe_r, np.asarray(safe_spheres[1]).reshape(-1)]
-    field_ = grasp_field(occ, target, config.clearance, safe_spheres=(safe_c, safe_r), extra_safe=extra_safe)
-    checker = ValidityChecker(spheres, grid=DistanceGrid.from_distance_field(field_),
-                              config=ValidityConfig(voxel_extent=config.voxel_extent))
-    checks = _Checks(checker, field_, ik, target, config)
-    cands = proposer.propose(target, rng)
+    checks = GraspChecks(occ, target, spheres, ik, config, (safe_c, safe_r), extra_safe, q_current)
+    field_, checker = checks.fine, checks.full
+    if config.constrained and "toward" in inspect.signature(proposer.propose).parameters:
+        # sample approaches only inside the cone the constraint allows
+        cands = proposer.propose(target, rng, toward=n, max_angle=config.max_approach_angle)
+    else:
+        cands = proposer.propose(target, rng)
     rejections: Counter = Counter()
     plan_time = 0.0
+
+    pre_of = np.zeros(len(cands))
+    lift_of = np.zeros(len(cands))
 
     def done(failure, idx=None, qs=None, path=None):
         if failure is not None:
@@ -313,10 +250,11 @@ def select_grasp(target: TargetModel, occ: OccupancyMap, task: Task, q_current: 
                                   dict(rejections), time.perf_counter() - t0, plan_time, failure)
         T = cands.T_world_tcp[idx]
         ang = float(approach_angles(cands.take([idx]), n)[0])
-        free = bool(checker.is_valid(qs[0]))
+        free = bool(checks.valid(np.asarray(qs[0])[None])[0])
         s = float(cands.score[idx])
         return GraspSelection(T, float(cands.width[idx]), s, *qs, path, ang, free, gpq(s, free, ang), n,
-                              len(cands), dict(rejections), time.perf_counter() - t0, plan_time, None)
+                              len(cands), dict(rejections), time.perf_counter() - t0, plan_time, None,
+                              float(pre_of[idx]), float(lift_of[idx]))
 
     if len(cands) == 0:
         return done(GraspFailure.NO_CANDIDATE)
@@ -335,8 +273,9 @@ def select_grasp(target: TargetModel, occ: OccupancyMap, task: Task, q_current: 
                 rejections[Rejection.NO_IK] += 1
                 continue
             q_g = r.solutions[0]
-            q_pre = checks.near(offset_pose(cands.T_world_tcp[idx], -config.pregrasp_distance), q_g, None)
-            q_lift = checks.near(offset_pose(cands.T_world_tcp[idx], up=config.lift_height), q_g, None)
+            pre_of[idx], lift_of[idx] = config.pregrasp_distances[0], config.lift_heights[0]
+            q_pre = checks.near(offset_pose(cands.T_world_tcp[idx], -pre_of[idx]), q_g, None)
+            q_lift = checks.near(offset_pose(cands.T_world_tcp[idx], up=lift_of[idx]), q_g, None)
             if q_pre is None or q_lift is None:
                 rejections[Rejection.NO_IK] += 1
                 continue
@@ -353,30 +292,50 @@ def select_grasp(target: TargetModel, occ: OccupancyMap, task: Task, q_current: 
     if len(within) == 0:
         return done(GraspFailure.NO_APPROACH)
     local = rigid_hand_spheres(spheres)
-    for reason, offsets in ((Rejection.HAND_IN_COLLISION, [(0.0, 0.0)]),
-                            (Rejection.HAND_APPROACH_BLOCKED,
-                             [(-f * config.pregrasp_distance, 0.0) for f in (1.0, 0.75, 0.5, 0.25)]),
-                            (Rejection.HAND_LIFT_BLOCKED, [(0.0, f * config.lift_height) for f in (0.5, 1.0)])):
-        ok = np.ones(len(within), dtype=bool)
-        for back, up in offsets:
-            T = cands.T_world_tcp[within].copy()
-            T[:, :3, 3] += back * T[:, :3, 2] + np.array([0.0, 0.0, up])
-            ok &= hand_clear(field_, T, local, config.voxel_extent)
-        rejections[reason] = int(np.count_nonzero(~ok))
-        within = within[ok]
+
+    def clear_at(idx, back, up):
+        T = cands.T_world_tcp[idx].copy()
+        T[:, :3, 3] += back * T[:, :3, 2] + np.array([0.0, 0.0, up])
+        return hand_clear(field_, T, local, config.voxel_extent)  # on the fine field near the target
+
+    ok = clear_at(within, 0.0, 0.0)
+    rejections[Rejection.HAND_IN_COLLISION] = int(np.count_nonzero(~ok))
+    within = within[ok]
+    pre = np.full(len(within), np.nan)
+    for d in config.pregrasp_distances:  # the first (longest) free straight approach
+        todo = np.isnan(pre)
+        ok = np.ones(int(todo.sum()), dtype=bool)
+        for f in (1.0, 0.75, 0.5, 0.25):
+            ok &= clear_at(within[todo], -f * d, 0.0)
+        pre[np.nonzero(todo)[0][ok]] = d
+    rejections[Rejection.HAND_APPROACH_BLOCKED] = int(np.count_nonzero(np.isnan(pre)))
+    within, pre = within[~np.isnan(pre)], pre[~np.isnan(pre)]
+    lift = np.full(len(within), np.nan)
+    for h in config.lift_heights:  # the first (highest) free lift
+        todo = np.isnan(lift)
+        ok = np.ones(int(todo.sum()), dtype=bool)
+        for f in np.arange(0.025, h + 1e-9, 0.025) / max(h, 1e-9):
+            ok &= clear_at(within[todo], 0.0, f * h)
+        ok &= clear_at(within[todo], 0.0, h)
+        lift[np.nonzero(todo)[0][ok]] = h
+    rejections[Rejection.HAND_LIFT_BLOCKED] = int(np.count_nonzero(np.isnan(lift)))
+    keep = ~np.isnan(lift)
+    pre_of[within[keep]], lift_of[within[keep]] = pre[keep], lift[keep]
+    within = within[keep]
     if len(within) == 0:
         return done(GraspFailure.NO_APPROACH_PATH)
-    # ties of s: the approach nearer n first (10 deg bins), then the higher grasp point
+    # ties of s: the higher free lift first, then the approach nearer n (10 deg bins), then the higher grasp point
     z = cands.T_world_tcp[within, 2, 3]
-    order = within[np.lexsort((-z, np.round(ang[within] / math.radians(10.0)), -cands.score[within]))]
-    lift_clear = checks.held_target_clear()
+    order = within[np.lexsort((-z, np.round(ang[within] / math.radians(10.0)), -lift_of[within],
+                               -cands.score[within]))]
+    lift_clear = {h: checks.held_target_clear(h) for h in config.lift_heights}
     feasible: list[tuple[int, tuple]] = []
     n_free_ik = 0
 
     def try_plan(group):
         nonlocal plan_time
         goals = np.array([qs[1] for _, qs in group])
-        res = plan(q_current, goals, checker, config.planner, rng)
+        res = plan(q_current, goals, checks.plan, config.planner, rng)
         plan_time += res.plan_time_s
         if res.success:
             idx, qs = group[res.goal_index]
@@ -390,7 +349,8 @@ def select_grasp(target: TargetModel, occ: OccupancyMap, task: Task, q_current: 
             if out is not None:
                 return out
             feasible = []
-        qs, why = checks.check(cands.T_world_tcp[idx], q_current, lift_clear)
+        qs, why = checks.check(cands.T_world_tcp[idx], q_current, pre_of[idx], lift_of[idx], lift_clear[lift_of[idx]])
+        why = None if why is None else Rejection[why]
         if why is not None:
             rejections[why] += 1
             n_free_ik += why not in (Rejection.NO_IK, Rejection.IK_IN_COLLISION)

@@ -94,15 +94,23 @@ class DistanceField:
         instance_of(occ_map, OccupancyMap, "occ_map")
         config = DistanceFieldConfig() if config is None else instance_of(config, DistanceFieldConfig, "config")
         unsafe = unsafe_mask(occ_map, safe_voxels, safe_spheres)
+        return cls.from_unsafe(unsafe, occ_map.grid_min, occ_map.resolution, config)
+
+    @classmethod
+    def from_unsafe(cls, unsafe: np.ndarray, grid_min: np.ndarray, resolution: float,
+                    config: DistanceFieldConfig | None = None) -> DistanceField:
+        """The field of a ready unsafe mask (nx, ny, nz) on a grid at grid_min (3,) [m]."""
+        config = DistanceFieldConfig() if config is None else instance_of(config, DistanceFieldConfig, "config")
+        unsafe = np.asarray(unsafe, dtype=bool)
         if config.outside_is_unsafe:
             unsafe = np.pad(unsafe, 1, constant_values=True)
         if unsafe.any():
-            dist = _distances(unsafe, occ_map.resolution)
+            dist = _distances(unsafe, float(resolution))
         else:
             dist = np.full(unsafe.shape, np.inf, np.float32)
         if config.outside_is_unsafe:
             dist = dist[1:-1, 1:-1, 1:-1]
-        return cls(dist, occ_map.grid_min, occ_map.resolution, config)
+        return cls(dist, grid_min, resolution, config)
 
     def distance_at(self, points_world: np.ndarray) -> np.ndarray:
         """Distances (N,) [m] at world points (N, 3) [m] (interpolation and outside rule

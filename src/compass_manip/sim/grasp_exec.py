@@ -4,7 +4,8 @@ approach along the gripper's z, close, lift, hold, with ground-truth collision m
 Reuses `physics.PhysicsSession` (position-controlled arm and tendon gripper) as it is; the
 phase-by-phase tracking with contact monitoring lives here. A collision is any penetrating
 contact of a robot geom with a geom other than the target (the base resting on the floor
-excepted). Success: the target rose by at least `min_lift` [m] after the lift, both finger
+excepted). Success: the target rose by at least `min_lift_fraction` of the commanded lift
+(the selection's `lift_height`) after the lift and after the hold, both finger
 pads still touch it after the hold, and nothing but the target was touched.
 """
 from __future__ import annotations
@@ -36,15 +37,16 @@ class ExecFailure(Enum):
 @dataclass(frozen=True)
 class GraspExecConfig:
     """velocity_scale of the Panda limits to the pre-grasp, approach_scale for the approach
-    and lift; close_time / hold_time [s]; min_lift [m] for success (the commanded lift is the
-    selection's); contact_depth [m]: penetration counted as a collision; check_every physics
+    and lift; close_time / hold_time [s]; min_lift_fraction of the selection's commanded
+    lift the target must rise (after the lift and after the hold) for success; contact_depth
+    [m]: penetration counted as a collision; check_every physics
     steps between contact checks; settle [s] after each motion."""
 
     velocity_scale: float = 0.5
     approach_scale: float = 0.15
     close_time: float = 1.0
     hold_time: float = 2.0
-    min_lift: float = 0.07
+    min_lift_fraction: float = 0.7
     contact_depth: float = 0.0005
     check_every: int = 5
     settle: float = 0.3
@@ -54,8 +56,10 @@ class GraspExecConfig:
             v = getattr(self, k)
             if not 0.0 < v <= 1.0:
                 raise CompassInputError(f"GraspExecConfig.{k} = {v} is not allowed; use (0, 1]")
-        if not (self.close_time > 0 and self.hold_time >= 0 and self.min_lift > 0 and self.check_every >= 1):
-            raise CompassInputError("close_time > 0, hold_time >= 0, min_lift > 0 and check_every >= 1 are required")
+        if not (self.close_time > 0 and self.hold_time >= 0 and 0.0 < self.min_lift_fraction <= 1.0
+                and self.check_every >= 1):
+            raise CompassInputError("close_time > 0, hold_time >= 0, 0 < min_lift_fraction <= 1 and check_every >= 1 "
+                                    "are required")
 
 
 @dataclass(frozen=True)
@@ -147,6 +151,7 @@ def execute_grasp(world: World, selection, q_start: np.ndarray | None = None,
     sim = PhysicsSession(world, q0, gripper_open=1.0)
     mon = _Monitor(world, sim, config.contact_depth)
     name = world.scene.target.name
+    parts = [world.model.geom(int(g)).name for g in world.target_geoms]  # the target's geoms
     every = config.check_every
     _run(sim, mon, None, "transfer", 0.2, every)
     z0 = sim.body_pos(name)[2]
@@ -159,22 +164,23 @@ def execute_grasp(world: World, selection, q_start: np.ndarray | None = None,
     sim.data.ctrl[sim._hand_act] = 0.0
     _run(sim, mon, None, "close", config.close_time, every)
     width = sim.finger_width
-    grasped = sim.touching(name) == 2
+    grasped = sim.touching(parts) == 2
     _run(sim, mon, _timed(np.stack([selection.q_grasp, selection.q_lift]), config.approach_scale),
          "lift", 0.0, every)
     _run(sim, mon, None, "lift", config.settle, every)
     lift = float(sim.body_pos(name)[2] - z0)
     _run(sim, mon, None, "hold", config.hold_time, every)
     hold = float(sim.body_pos(name)[2] - z0)
-    held = sim.touching(name) == 2
+    held = sim.touching(parts) == 2
     collisions = tuple(mon.seen.values())
+    need = config.min_lift_fraction * float(getattr(selection, "lift_height", 0.0) or 0.1)
     if collisions:
         failure = ExecFailure.COLLISION
     elif not grasped:
         failure = ExecFailure.MISSED
-    elif lift < config.min_lift:
+    elif lift < need:
         failure = ExecFailure.SLIP
-    elif hold < config.min_lift or not held:
+    elif hold < need or not held:
         failure = ExecFailure.DROP
     else:
         failure = None

@@ -26,7 +26,7 @@ from ..mapping.observe import integrate_observation
 from ..mapping.distance import unsafe_mask
 from ..mapping.occupancy import MapConfig, OccupancyMap, VoxelState
 from ..robot.ik import ik_camera
-from ..robot.model import GRIPPER_MAX_WIDTH
+from ..robot.model import GRIPPER_MAX_WIDTH, Q_MAX, Q_MIN
 from ..robot.spheres import panda_sphere_model
 from .grasp_exec import GraspExecConfig, GraspOutcome, execute_grasp
 from .scenes import SceneSpec
@@ -37,7 +37,10 @@ from .world import World
 class GraspOnlyConfig:
     """n_view_samples camera poses tried for the oracle start; view_distance [m] range from
     the target; min_visibility of the target from the chosen view; home_sweep / view_sweep:
-    wrist sweeps at home and at the view feeding the map; carve_margin [m] added to the
+    wrist sweeps at home and at the view feeding the map; explore_views: up to this many
+    other reachable sampled views (each with explore_path_frames frames on its straight way
+    from home) feed the map too, standing in for the views an exploration of the opening
+    makes before it sees the target (their ways are marked as robot space); carve_margin [m] added to the
     robot's spheres along the way it moved (marked safe in the map)."""
 
     n_view_samples: int = 80
@@ -46,8 +49,10 @@ class GraspOnlyConfig:
     home_sweep: bool = True
     view_sweep: bool = True
     path_frames: int = 6
-    near_field_views: int = 16
+    near_field_views: int = 24
     near_body_free: bool = True
+    explore_views: int = 12
+    explore_path_frames: int = 2
     carve_margin: float = 0.02
     target: TargetConfig = field(default_factory=TargetConfig)
     select: GraspSelectConfig = field(default_factory=GraspSelectConfig)
@@ -72,15 +77,41 @@ class GraspOnlyResult:
     def success(self) -> bool:
         return self.outcome is not None and self.outcome.success
 
+    def to_dict(self) -> dict:
+        """A JSON-able record (the start is labelled: the oracle picked it)."""
+        s, o = self.selection, self.outcome
+        ok = s is not None and s.failure is None
+        return {
+            "success": bool(self.success), "start": "oracle view (ground truth)",
+            "view_found": self.q_view is not None, "visibility": round(float(self.visibility), 3),
+            "n_target_points": self.n_target_points,
+            "selection_failure": None if s is None or s.failure is None else s.failure.name,
+            "exec_failure": None if o is None or o.failure is None else o.failure.name,
+            "score": None if s is None else s.score, "gpq": None if s is None else round(s.gpq, 4),
+            "approach_angle_deg": round(float(np.degrees(s.approach_angle)), 1) if ok else None,
+            "pregrasp_m": s.pregrasp_distance if ok else None, "commanded_lift_m": s.lift_height if ok else None,
+            "ik_free": None if s is None else s.ik_free, "n_candidates": None if s is None else s.n_candidates,
+            "rejections": None if s is None else {k.name: v for k, v in s.rejections.items()},
+            "select_time_s": None if s is None else round(s.time_s, 4),
+            "plan_time_s": None if s is None else round(s.plan_time_s, 4),
+            "collisions": [] if o is None else [f"{c.phase}:{c.robot_geom}->{c.other_geom}" for c in o.collisions],
+            "lift_height": None if o is None else round(o.lift_height, 4),
+            "hold_height": None if o is None else round(o.hold_height, 4),
+            "map_time_s": round(self.map_time_s, 3),
+        }
+
 
 def _straight_free(world: World, q0: np.ndarray, q1: np.ndarray, step: float = 0.02) -> bool:
     n = max(1, int(np.ceil(np.max(np.abs(q1 - q0)) / step)))
     return not any(world.in_collision(q0 + (q1 - q0) * k / n, GRIPPER_MAX_WIDTH) for k in range(n + 1))
 
 
-def oracle_view(world: World, rng: np.random.Generator, config: GraspOnlyConfig) -> tuple[np.ndarray | None, float]:
+def oracle_view(world: World, rng: np.random.Generator, config: GraspOnlyConfig,
+                reached: list | None = None) -> tuple[np.ndarray | None, float]:
     """ORACLE START (ground truth): the best-seeing of sampled reachable, collision-free
-    camera views of the target, in front of the opening and above the target; (q, visibility)."""
+    camera views of the target, in front of the opening and above the target; (q, visibility).
+    reached: if a list, every reachable sampled view (q) is appended to it (the places an
+    exploration of the same opening would have looked from)."""
     scene = world.scene
     lo = np.array(scene.cabinet.interior_min)
     hi = np.array(scene.cabinet.interior_max)
@@ -102,6 +133,8 @@ def oracle_view(world: World, rng: np.random.Generator, config: GraspOnlyConfig)
             if world.in_collision(q, GRIPPER_MAX_WIDTH) or not _straight_free(world, q_home, q):
                 continue
             vis = world.target_visibility(q)
+            if reached is not None:
+                reached.append(q)
             if vis > best_vis:
                 best, best_vis = q, vis
             break
@@ -114,14 +147,20 @@ def oracle_view(world: World, rng: np.random.Generator, config: GraspOnlyConfig)
 
 
 def near_field_configs(world: World, rng: np.random.Generator, n: int) -> list[np.ndarray]:
-    """Up to n wrist configurations around home (joints 1-4 held, joints 5-7 uniform within
-    their limits), kept when free of ground-truth contact along the straight way from home
+    """Up to n wrist configurations around home (joints 5-7 uniform within their limits;
+    every other one with joints 1, 2 and 4 also moved a little), kept when free of
+    ground-truth contact along the straight way from home
     (the simulator stands in for the NFA scan's validity checks)."""
     q_home = np.asarray(world.robot.q_home)
     out = []
     for _ in range(4 * n):
         q = q_home.copy()
+        if len(out) % 2:  # every other view also turns and bends the arm, so the camera sees the space near the base
+            q[0] += rng.uniform(-0.8, 0.8)
+            q[1] += rng.uniform(-0.2, 0.5)
+            q[3] += rng.uniform(-0.3, 0.5)
         q[4] = rng.uniform(-2.5, 2.5)
+        q = np.clip(q, Q_MIN + 1e-3, Q_MAX - 1e-3)
         q[5] = rng.uniform(0.3, 3.6)
         q[6] = rng.uniform(-2.5, 2.5)
         if not world.in_collision(q, GRIPPER_MAX_WIDTH) and _straight_free(world, q_home, q, 0.05):
@@ -164,7 +203,8 @@ def run_grasp_only(scene: SceneSpec, config: GraspOnlyConfig | None = None, seed
     world = world or World(scene)
     try:
         q_home = np.asarray(world.robot.q_home)
-        q_view, vis = oracle_view(world, rng, config)
+        reached: list = []
+        q_view, vis = oracle_view(world, rng, config, reached)
         if q_view is None:
             return GraspOnlyResult(None, vis, 0, None, None, None, 0.0)
         t0 = time.perf_counter()
@@ -179,6 +219,13 @@ def run_grasp_only(scene: SceneSpec, config: GraspOnlyConfig | None = None, seed
         for q in near_field_configs(world, rng, config.near_field_views):
             frames.append(world.render(q, rgb=False, seg=False))
             m = max(1, int(np.ceil(np.max(np.abs(q - q_home)) / 0.1)))
+            moved += [q_home + (q - q_home) * k / m for k in range(m + 1)]
+        for q in reached[: config.explore_views]:
+            if np.array_equal(q, q_view):
+                continue
+            frames += [world.render(q_home + (q - q_home) * s, rgb=False, seg=False)
+                       for s in np.linspace(0.0, 1.0, config.explore_path_frames + 2)[1:]]
+            m = max(1, int(np.ceil(np.max(np.abs(q - q_home)) / 0.05)))
             moved += [q_home + (q - q_home) * k / m for k in range(m + 1)]
         n = max(1, int(np.ceil(np.max(np.abs(q_view - q_home)) / 0.05)))
         moved += [q_home + (q_view - q_home) * k / n for k in range(n + 1)]

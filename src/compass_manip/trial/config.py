@@ -7,9 +7,12 @@ from dataclasses import dataclass, field, fields, is_dataclass
 
 from ..errors import CompassInputError
 from ..exploration.compass import CompassConfig
+from ..grasp.select import GraspSelectConfig
+from ..grasp.target import TargetConfig
 from ..motion.timing import TimingConfig
 from ..perception.buffer import BufferConfig
 from ..perception.detector import DETECTORS, DetectorConfig
+from ..sim.grasp_exec import GraspExecConfig
 
 #: Detector kinds a trial may use: the registered image detectors plus the oracle.
 ORACLE_DETECTOR = "oracle-segmentation"
@@ -38,12 +41,36 @@ class SensingConfig:
 
 
 @dataclass(frozen=True)
+class GraspTrialConfig:
+    """The GRASP state: enabled (False: find-only, FOUND is terminal, as the exploration
+    baselines are compared); target model, selection (`constrained=False` is the paper's
+    ablation) and physics execution settings; moved_margin [m] added to the robot's spheres
+    along its executed way (its own space in the map), max_moved_configs of that way used;
+    near_body_free: unknown voxels the arm's links 0-4 sweep near home count as free (an
+    assumption: a wrist camera never sees the space its own elbow moves through)."""
+
+    enabled: bool = True
+    target: TargetConfig = field(default_factory=TargetConfig)
+    select: GraspSelectConfig = field(default_factory=GraspSelectConfig)
+    execute: GraspExecConfig = field(default_factory=GraspExecConfig)
+    moved_margin: float = 0.02
+    max_moved_configs: int = 400
+    near_body_free: bool = True
+
+    def __post_init__(self) -> None:
+        if not 0.0 <= self.moved_margin <= 0.1 or not 1 <= self.max_moved_configs <= 100000:
+            raise CompassInputError(f"moved_margin {self.moved_margin} m / max_moved_configs "
+                                    f"{self.max_moved_configs} not allowed; use 0..0.1 m and 1..100000")
+
+
+@dataclass(frozen=True)
 class TrialConfig:
     """method: the exploration config shared by all registered methods; detector /
     detector_kind: the image detector ('appearance', or the oracle 'oracle-segmentation'
     for ablations); buffer: the detection window; clock; sensing; timing: trajectory
     limits (Panda datasheet, scaled); time_limit_s [s]; surroundings_margin [m] of the
-    target region whose explored fraction is recorded."""
+    target region whose explored fraction is recorded; grasp: the GRASP state after FOUND
+    (`GraspTrialConfig(enabled=False)` for find-only trials)."""
 
     method: CompassConfig = field(default_factory=CompassConfig)
     detector: DetectorConfig = field(default_factory=DetectorConfig)
@@ -54,6 +81,7 @@ class TrialConfig:
     timing: TimingConfig = field(default_factory=lambda: TimingConfig(velocity_scale=0.5, acceleration_scale=0.5))
     time_limit_s: float = 200.0
     surroundings_margin: float = 0.1
+    grasp: GraspTrialConfig = field(default_factory=GraspTrialConfig)
 
     def __post_init__(self) -> None:
         kinds = (*DETECTORS, ORACLE_DETECTOR)

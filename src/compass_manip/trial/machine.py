@@ -1,5 +1,7 @@
 """The trial state machine: NFA -> EXPLORE (sense, integrate, detect, decide, move) ->
-FOUND -> DONE, or a failure named by its reason. (GRASP will sit between FOUND and DONE.)
+FOUND -> GRASP -> DONE, or a failure named by its reason. Without a grasp stage (find-only
+trials) FOUND -> DONE. GRASP (`grasp_stage.run_grasp_stage`) selects a grasp on the method's
+map and executes it in physics; the clock advances by its charge and motions.
 
 The simulated clock advances by each trajectory's duration (Panda limits, `motion.timing`)
 plus a charge per decision (fixed by default, so the same seed gives a bit-identical
@@ -34,6 +36,7 @@ class TrialState(enum.Enum):
     NFA = "nfa"
     EXPLORE = "explore"
     FOUND = "found"
+    GRASP = "grasp"
     DONE = "done"
     FAILED = "failed"
 
@@ -42,8 +45,9 @@ class TrialState(enum.Enum):
 class MachineOutcome:
     """How the run ended: the failure (None when found), the accepted detection (a
     `perception.buffer.BufferedDetection`) and the time it was found [s], the end time [s],
-    the states visited in order, the executed camera positions (N, 3) [m] and the final
-    configuration q_end (7,) [rad]."""
+    the states visited in order, the executed camera positions (N, 3) [m], the final
+    configuration q_end (7,) [rad] and the GRASP state's `GraspStageResult` (None when not
+    entered)."""
 
     failure: TrialFailure | None
     found: object | None
@@ -52,15 +56,18 @@ class MachineOutcome:
     states: tuple[TrialState, ...]
     camera_path: np.ndarray
     q_end: np.ndarray
+    grasp: object | None = None
 
 
 class TrialMachine:
     """Runs one trial of `method` in `world` (see the module docstring). `pass_frames`: push
-    whole frames (with labels) to the buffer, for the oracle detector only. `observer`: a
-    `trial.observer.TrialObserver` told of every event (read-only; video, Rerun)."""
+    whole frames (with labels) to the buffer, for the oracle detector only. grasp: the GRASP
+    state, `grasp(q_current, detection, executed_paths) -> GraspStageResult`, or None for a
+    find-only trial. `observer`: a `trial.observer.TrialObserver` told of every event
+    (read-only; video, Rerun)."""
 
     def __init__(self, world, method, buffer, metrics, config, progress=None, pass_frames: bool = False,
-                 observer=None) -> None:
+                 grasp=None, observer=None) -> None:
         self.world, self.method, self.buffer, self.metrics, self.config = world, method, buffer, metrics, config
         self.progress = progress
         self.observer = observer if observer is not None else TrialObserver()
@@ -68,6 +75,8 @@ class TrialMachine:
         self.t = 0.0
         self.states: list[TrialState] = []
         self.cam: list[np.ndarray] = []
+        self.grasp = grasp
+        self.moved: list[np.ndarray] = []
 
     def _feed(self, frame) -> None:
         obs = frame.observation()
@@ -124,6 +133,7 @@ class TrialMachine:
                 failure = TrialFailure.COLLISION
                 break
             self.method.executed(d.path)
+            self.moved.append(np.asarray(d.path))
             self._feed(self.world.render(res.q_end, t=self.t, rgb=True, seg=render_seg))
             self.metrics.explored_fraction(self.t, self.method.occupancy)
             if self.progress is not None:
@@ -134,8 +144,18 @@ class TrialMachine:
             t_found = found.detection.t
             if t_found > limit:
                 failure, found, t_found = TrialFailure.TIME_LIMIT, None, None
+        grasped = None
+        if failure is None and found is not None and self.grasp is not None:
+            self._enter(TrialState.GRASP)
+            grasped = self.grasp(self.world.q, found.detection, self.moved)
+            sel = grasped.selection
+            if sel is not None and sel.T_world_tcp is not None:
+                self.observer.grasp_candidates(self.t, sel.T_world_tcp[None], np.array([sel.score]))
+            self.t += grasped.duration_s
+            self.metrics.collisions += grasped.n_collisions
+            failure = grasped.failure
         self._enter(TrialState.DONE if failure is None else TrialState.FAILED)
         outcome = MachineOutcome(failure, found, t_found, self.t, tuple(self.states),
-                                 np.array(self.cam).reshape(-1, 3), self.world.q)
+                                 np.array(self.cam).reshape(-1, 3), self.world.q, grasped)
         self.observer.end(outcome)
         return outcome

@@ -16,6 +16,13 @@ class TrialFailure(enum.Enum):
     TARGET_NOT_FOUND = "everything reachable explored, target not found"
     FALSE_DETECTION = "the accepted detection is not the target"
     COLLISION = "the robot touched the scene"
+    GRASP_NO_CANDIDATE = "found, but no grasp candidate within the approach cone"
+    GRASP_NO_IK = "found, but no candidate has a collision-free IK solution"
+    GRASP_NO_PATH = "found, but no candidate has a free approach, lift and path"
+    GRASP_COLLISION = "found, but the grasp touched something other than the target"
+    GRASP_MISSED = "found, but the fingers closed without holding the target"
+    GRASP_SLIP = "found, but the target did not rise with the hand"
+    GRASP_DROP = "found, but the target was lost during the hold"
 
 
 @dataclass(frozen=True)
@@ -24,7 +31,12 @@ class TrialResult:
     time and end-effector path length to find the target (the limit and the path length at
     the limit for failures); mpsr: plans that succeeded / attempted; am: mean manipulability
     along executed paths; explored_curve: (t [s], fraction known) of the target's
-    surroundings; planning_ms_*: decision compute time; wall_s: wall time of the trial."""
+    surroundings; planning_ms_*: decision compute time; wall_s: wall time of the trial.
+    success is end to end: found and (unless the trial is find-only) grasped, lifted and
+    held. found: the target was found (a true detection within the limit); gpq: the selected
+    grasp's Grasp Pose Quality (None when no grasp was selected or find-only); grasp_s [s]
+    simulated time of the GRASP state (None when not entered); lift_m [m] the target's rise
+    after the hold (None when no grasp was executed)."""
 
     method: str
     level: int
@@ -44,6 +56,9 @@ class TrialResult:
     planning_ms_p90: float | None
     wall_s: float
     true_detection: bool | None
+    found: bool = False
+    grasp_s: float | None = None
+    lift_m: float | None = None
 
     @property
     def success(self) -> bool:
@@ -61,5 +76,6 @@ class TrialResult:
             "explored_curve": [[r(t, 3), r(f)] for t, f in self.explored_curve],
             "decisions": self.decisions, "planning_ms_median": r(self.planning_ms_median, 2),
             "planning_ms_p90": r(self.planning_ms_p90, 2), "wall_s": r(self.wall_s, 3),
-            "true_detection": self.true_detection,
+            "true_detection": self.true_detection, "found": self.found, "grasp_s": r(self.grasp_s, 3),
+            "lift_m": r(self.lift_m),
         }

@@ -22,6 +22,7 @@ from ..sim.levels import check_level
 from ..sim.oracle import OracleSegmentationDetector, detection_is_target, target_surroundings
 from ..sim.world import World
 from .config import ORACLE_DETECTOR, TrialConfig
+from .grasp_stage import run_grasp_stage
 from .machine import MachineOutcome, TrialMachine
 from .metrics import MetricsRecorder
 from .oracle_method import ORACLE_METHOD, make_oracle_method
@@ -97,9 +98,16 @@ def run_trial_full(spec: TrialSpec, config: TrialConfig | None = None, progress=
         config.detector)
     buffer = DetectionBuffer(detector, task.target, config.buffer)
     metrics = MetricsRecorder(PandaKinematics(world.robot), target_surroundings(scene, config.surroundings_margin))
+    grasp = None
+    if config.grasp.enabled:
+        grasp_rng = np.random.default_rng(np.random.SeedSequence((spec.seed, spec.level, spec.scene, spec.trial, 11)))
+        charge = None if config.clock.measured else config.clock.planning_charge_s
+
+        def grasp(q, detection, moved):
+            return run_grasp_stage(world, method.occupancy, detection, task, q, moved, config.grasp, grasp_rng, charge)
     try:
         outcome = TrialMachine(world, method, buffer, metrics, config, progress, pass_frames=oracle,
-                               observer=observer).run()
+                               grasp=grasp, observer=observer).run()
     finally:
         buffer.close()
         world.close()
@@ -111,14 +119,18 @@ def run_trial_full(spec: TrialSpec, config: TrialConfig | None = None, progress=
         true_det = detection_is_target(scene, outcome.found.detection)
         if not true_det:
             failure = TrialFailure.FALSE_DETECTION
+    found = outcome.found is not None and bool(true_det)
     limit = config.time_limit_s
-    t_find = outcome.t_found if failure is None else limit
-    pft = metrics.path_length_at(outcome.t_found if failure is None else min(outcome.t_end, limit))
+    t_find = outcome.t_found if found else limit
+    pft = metrics.path_length_at(outcome.t_found if found else min(outcome.t_end, limit))
+    g = outcome.grasp
     med, p90 = metrics.decision_ms()
     result = TrialResult(
         method=spec.method, level=spec.level, scene=spec.scene, trial=spec.trial, seed=spec.seed, failure=failure,
-        tft_s=t_find, pft_m=pft, mpsr=metrics.mpsr, am=metrics.am, gpq=None, collisions=metrics.collisions,
+        tft_s=t_find, pft_m=pft, mpsr=metrics.mpsr, am=metrics.am, gpq=None if g is None else g.gpq,
+        collisions=metrics.collisions,
         explored_curve=tuple(metrics.explored), decisions=metrics.decisions, planning_ms_median=med,
         planning_ms_p90=p90, wall_s=time.perf_counter() - wall0, true_detection=true_det,
+        found=found, grasp_s=None if g is None else g.duration_s, lift_m=None if g is None else g.lift_m,
     )
     return TrialRun(result, outcome, scene, metrics)

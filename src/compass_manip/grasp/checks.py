@@ -1,0 +1,156 @@
+"""The checks of one grasp selection against the map, on a finer grid.
+
+The unsafe space (unknown or occupied, less the target's carve and the robot's own space,
+`carve.grasp_unsafe`) becomes a distance field `field_upsample` times finer than the map in
+a box holding the robot as it stands and the target (`carve.local_fine_field`; outside the
+box is unsafe). Every unsafe voxel is split into unsafe sub-voxels, so the unsafe space is
+the same cubes; a checker's conservative bound (distance at the nearest grid centre, minus
+the offset to it and half a grid diagonal) then loses at most one fine voxel diagonal
+(8.7 mm at 5 mm) instead of one map voxel diagonal (17 mm at 1 cm), which is the clearance
+the certified scenes leave around the hand. The hand (every link rigid with the TCP) is
+checked on it at the grasp, along the approach and along the lift (`hand_clear`) before
+any IK; configurations and straight edges use the whole robot on it, and the planned path
+to the pre-grasp (`plan`) keeps `plan_margin` more (a free-space ray grazing a board's edge
+can mark a voxel free that the board still reaches into) and has the target itself, carved
+from the map for the fingers, back as an obstacle (`target_box`): the hand must not sweep
+through it on its way to the pre-grasp.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..geometry import make_T
+from ..mapping.distance import DistanceField
+from ..mapping.occupancy import OccupancyMap
+from ..motion.primitives import DistanceGrid, PrimitiveSet
+from ..motion.validity import ValidityChecker, ValidityConfig
+from ..robot.spheres import SphereModel
+from .carve import grasp_unsafe, local_fine_field
+from .target import TargetModel
+
+#: Links rigid with the TCP (checked on the fine field before any IK).
+HAND_LINKS = ("panda_link7", "panda_link8", "hand/panda_hand", "hand/panda_leftfinger", "hand/panda_rightfinger")
+
+
+def rigid_hand_spheres(spheres: SphereModel) -> tuple[np.ndarray, np.ndarray]:
+    """Spheres of the links rigid with the TCP (link7, flange, hand, camera housing, open
+    fingers) in the TCP frame: (centres (K,3) [m], radii (K,) [m]). They let a grasp pose
+    be checked against the map before any IK is solved."""
+    keep = _hand_mask(spheres)
+    q = np.array([0.0, -0.3, 0.0, -2.2, 0.0, 2.0, 0.785])
+    C = spheres.sphere_centers(q[None])[0][keep]
+    T = spheres.kinematics.T_world_tcp(q)
+    return (C - T[:3, 3]) @ T[:3, :3], spheres.radii[keep].copy()
+
+
+def hand_clear(field: DistanceField, T_world_tcp: np.ndarray, local: tuple[np.ndarray, np.ndarray],
+               voxel_extent: bool = True) -> np.ndarray:
+    """(M,) True where every rigid hand sphere at each TCP pose (M,4,4) clears unsafe space,
+    with the validity checker's conservative bound (nearest voxel centre, its offset and
+    half a voxel diagonal subtracted)."""
+    C, r = local
+    W = np.einsum("mij,kj->mki", T_world_tcp[:, :3, :3], C) + T_world_tcp[:, None, :3, 3]
+    res = field.resolution
+    f = (W - field.grid_min) / res - 0.5
+    i = np.floor(f + 0.5).astype(np.int64)
+    shape = np.asarray(field.distances.shape)
+    inside = np.all((i >= 0) & (i < shape), axis=-1)
+    ic = np.clip(i, 0, shape - 1)
+    d = field.distances[ic[..., 0], ic[..., 1], ic[..., 2]]
+    half = 0.5 * math.sqrt(3.0) * res if voxel_extent else 0.0
+    clear = d - np.linalg.norm(f - i, axis=-1) * res - half - r
+    return np.all(inside & (clear >= 0.0), axis=1)
+
+
+def offset_pose(T: np.ndarray, along_approach: float = 0.0, up: float = 0.0) -> np.ndarray:
+    """T moved by along_approach [m] along its z and by up [m] along world z."""
+    return make_T(T[:3, :3], T[:3, 3] + along_approach * T[:3, 2] + np.array([0.0, 0.0, up]))
+
+
+def target_box(target: TargetModel, grow: float = 0.005) -> PrimitiveSet:
+    """The target model's box along its principal axes (seen and completed points), grown
+    by `grow` [m], as a primitive obstacle."""
+    R = np.array(target.axes, dtype=np.float64)
+    if np.linalg.det(R) < 0:
+        R[:, 2] = -R[:, 2]
+    proj = target.points @ R
+    lo, hi = proj.min(0), proj.max(0)
+    T = make_T(R, R @ (0.5 * (lo + hi)))
+    return PrimitiveSet.from_lists(boxes=[(T, 0.5 * (hi - lo) + grow)])
+
+
+def _hand_mask(spheres: SphereModel) -> np.ndarray:
+    return np.isin(spheres.body_index, [spheres.link_names.index(k) for k in HAND_LINKS if k in spheres.link_names])
+
+
+class GraspChecks:
+    """Per-selection context (module doc): `fine` field near the target, `full` checker
+    (whole robot, map grid), `valid` / `edge_valid` for grasp configurations, IK helpers."""
+
+    def __init__(self, occ: OccupancyMap, target: TargetModel, spheres: SphereModel, ik, config,
+                 safe_spheres: tuple[np.ndarray, np.ndarray], extra_safe: np.ndarray | None = None,
+                 q_current: np.ndarray | None = None, box_margin: float = 0.25):
+        self.ik, self.target, self.config = ik, target, config
+        unsafe = grasp_unsafe(occ, target, config.clearance, safe_spheres, extra_safe)
+        pts = target.points
+        if q_current is not None:  # the box holds the robot as it stands and the target
+            pts = np.vstack([pts, spheres.sphere_centers(np.asarray(q_current, dtype=np.float64)[None])[0]])
+        self.fine = local_fine_field(unsafe, occ, pts.min(0) - box_margin, pts.max(0) + box_margin,
+                                     config.field_upsample)
+        grid = DistanceGrid.from_distance_field(self.fine)
+        vc = ValidityConfig(voxel_extent=config.voxel_extent)
+        self.full = ValidityChecker(spheres, grid=grid, config=vc)
+        self.plan = ValidityChecker(spheres, grid=grid, obstacles=target_box(target),
+                                    config=ValidityConfig(voxel_extent=config.voxel_extent, margin=config.plan_margin))
+
+    def valid(self, Q: np.ndarray) -> np.ndarray:
+        """(N,) configurations free of the map and of self-collision."""
+        return self.full.are_valid(np.asarray(Q, dtype=np.float64).reshape(-1, 7))
+
+    def are_valid(self, Q: np.ndarray) -> np.ndarray:  # the IK solver's validity interface
+        return self.valid(Q)
+
+    def edge_valid(self, q0: np.ndarray, q1: np.ndarray) -> bool:
+        return bool(self.full.edge_valid(q0, q1))
+
+    def held_target_clear(self, lift_height: float) -> bool:
+        """The target's points stay in safe space all along a lift of lift_height [m] (1 cm steps)."""
+        steps = np.arange(0.0, lift_height + 1e-9, 0.01)[1:]
+        if len(steps) == 0:
+            return True
+        pts = (self.target.points[None] + steps[:, None, None] * np.array([0.0, 0.0, 1.0])).reshape(-1, 3)
+        return bool(np.all(self.fine.distance_at(pts) >= 0.5 * self.fine.resolution))
+
+    def near(self, T: np.ndarray, q_ref: np.ndarray, validity) -> np.ndarray | None:
+        r = self.ik.solve(T, "tcp", q_ref, self.config.n_q7, validity, retry=False)
+        if not r.success or np.max(np.abs(r.solutions[0] - q_ref)) > self.config.max_joint_step:
+            return None
+        return r.solutions[0]
+
+    def check(self, T: np.ndarray, q_current: np.ndarray, pre: float, lift: float, lift_clear: bool):
+        """((q_grasp, q_pregrasp, q_lift), None) for one candidate pose with its pre-grasp
+        distance and lift height [m] (the hand already checked on the fine field), or
+        (None, the `select.Rejection` name)."""
+        config = self.config
+        r = self.ik.solve(T, "tcp", q_current, config.n_q7, None)
+        if not r.success:
+            return None, "NO_IK"
+        free = self.valid(r.solutions)
+        if not free.any():
+            return None, "IK_IN_COLLISION"
+        reason = "PREGRASP_BLOCKED"
+        for q_g in r.solutions[free][: config.max_ik_solutions]:
+            q_pre = self.near(offset_pose(T, -pre), q_g, self)
+            if q_pre is None:
+                continue
+            if not self.edge_valid(q_pre, q_g):
+                reason = "APPROACH_BLOCKED"
+                continue
+            q_lift = self.near(offset_pose(T, up=lift), q_g, self)
+            if q_lift is None or not lift_clear or not self.edge_valid(q_g, q_lift):
+                reason = "LIFT_BLOCKED"
+                continue
+            return (q_g, q_pre, q_lift), None
+        return None, reason
