@@ -31,7 +31,7 @@ def _records() -> list[TrialRecord]:
                       "gpq": None if m == "fv" else 0.6, "collisions": int(t == 1),
                       "explored_curve": [[0.0, 0.0], [tft / 2, 0.3], [tft, 0.6]], "decisions": 3,
                       "planning_ms_median": 1.0, "planning_ms_p90": 2.0, "wall_s": 1.0,
-                      "true_detection": t < 2 if m != "fv" else None}
+                      "true_detection": t < 2 if m != "fv" else None, "found": t < 2}
             out.append(TrialRecord(m, lv, 0, t, 0, success, failure, None, "tests:hand", {"method": m}, result, 1.0))
     out.append(TrialRecord("compass", 2, 1, 0, 0, False, "runner_error", "RuntimeError: boom", "tests:hand",
                            None, None, 0.1))
@@ -54,17 +54,23 @@ def test_intervals_against_scipy_and_hand_values():
 def test_table_one_shape_numbers_and_bold():
     t = table_one(_records())
     assert t.header == ("Metric", "L1 fv", "L1 compass", "L2 fv", "L2 compass")  # ablations are not Table I columns
-    assert [r[0] for r in t.rows] == ["TFT (s) ↓", "PFT (m) ↓", "MPSR (%) ↑", "AM ↑", "GPQ ↑", "SR (%) ↑"]
+    assert [r[0] for r in t.rows] == ["TFT (s) ↓", "PFT (m) ↓", "MPSR (%) ↑", "AM ↑", "GPQ ↑", "Found (%) ↑",
+                                      "SR (%) ↑"]
     tft = t.rows[0]
     half = stats.t.ppf(0.975, 2) * 10.0 / math.sqrt(3)
     assert tft[1] == f"20.0 ± {half:.1f} (3)" and tft[2] == "6.0 ± 2.5 (3)"
     assert (0, 2) in t.bold and (0, 1) not in t.bold  # L1: compass is faster
     assert (0, 3) in t.bold and (0, 4) not in t.bold  # L2: fv is faster
     assert t.rows[4][1] == "–" and t.rows[4][2].startswith("0.600 ± 0.000 (3)")  # fv has no GPQ
-    sr = t.rows[5]
+    found = t.rows[5]  # fv L1: found in 2 of 3 trials but succeeded in 1 (found counts without the grasp)
+    w = wilson95(2, 3)
+    assert found[1] == f"66.7 [{100 * w.lo:.1f}–{100 * w.hi:.1f}] (3)"
+    sr = t.rows[6]
+    assert sr[1].startswith("33.3 [")
     w = wilson95(2, 4)  # compass L2: 2 of 3 trials, plus the runner error counts as a failure
     assert sr[4] == f"50.0 [{100 * w.lo:.1f}–{100 * w.hi:.1f}] (4)"
-    assert (5, 2) in t.bold and t.rows[2][2] == "60.0 ± 24.8 (3)"  # MPSR in percent
+    assert found[4] == sr[4]  # the runner error has no result: not found
+    assert (6, 2) in t.bold and t.rows[2][2] == "60.0 ± 24.8 (3)"  # MPSR in percent
 
 
 def test_markdown_table_has_the_table_one_layout(tmp_path):
@@ -75,7 +81,7 @@ def test_markdown_table_has_the_table_one_layout(tmp_path):
     files = write_report(db, str(tmp_path / "out"))
     md = open(files.markdown).read()
     block = md.split("### Table I")[1].split("\n\n")[1].strip().splitlines()
-    assert len(block) == 2 + 6  # header, separator, six metric rows
+    assert len(block) == 2 + 7  # header, separator, seven metric rows
     assert all(line.count("|") == 6 for line in block)  # Metric + 2 levels × 2 methods
     assert re.search(r"\| TFT \(s\) ↓ \| 20\.0 ± 24\.8 \(3\) \| \*\*6\.0 ± 2\.5 \(3\)\*\* \|", md)
     assert "Absent from this results file: compass-no-grasp-constraints." in md
@@ -122,3 +128,12 @@ def test_report_of_only_failed_ablation_trials_still_renders(tmp_path):
     assert "No main method" in md and "Absent from this results file: compass." in md
     assert "| compass-no-nfa | L3 | 2 | 0 | 2 |" in md
     assert open(files.html).read().count("data:image/png;base64,") == 3
+
+
+def test_the_grasp_ablation_the_report_reads_is_a_runnable_trial_method():
+    from compass_manip.bench.summary import GRASP_ABLATION, NFA_ABLATION
+    from compass_manip.trial.config import GRASP_ABLATION_METHOD
+    from compass_manip.trial.runner import trial_methods
+
+    assert GRASP_ABLATION == GRASP_ABLATION_METHOD
+    assert {GRASP_ABLATION, NFA_ABLATION} <= set(trial_methods())

@@ -23,11 +23,15 @@ NFA_ABLATION = "compass-no-nfa"
 GRASP_ABLATION = "compass-no-grasp-constraints"
 ABLATIONS = (NFA_ABLATION, GRASP_ABLATION)
 SUCCESS = "success"
+#: rate rows: the share of trials whose result has this key true (FOUND: a true detection)
+FOUND = "found"
+RATES = (SUCCESS, FOUND)
 
 
 @dataclass(frozen=True)
 class Metric:
-    """A Table I row: `key` in the trial result (SUCCESS: the success rate over all trials)."""
+    """A Table I row: `key` in the trial result (SUCCESS / FOUND: the share of all trials
+    that succeeded end to end / found the target)."""
 
     label: str
     key: str
@@ -42,6 +46,7 @@ TABLE_ONE = (
     Metric("MPSR (%) ↑", "mpsr", True, scale=100.0),
     Metric("AM ↑", "am", True, digits=3),
     Metric("GPQ ↑", "gpq", True, digits=3),
+    Metric("Found (%) ↑", FOUND, True),
     Metric("SR (%) ↑", SUCCESS, True),
 )
 
@@ -64,11 +69,13 @@ def order_methods(methods) -> list[str]:
 def estimate(recs: list[TrialRecord], metric: Metric) -> Estimate:
     if metric.key == SUCCESS:
         return wilson95(sum(r.success for r in recs), len(recs))
+    if metric.key == FOUND:
+        return wilson95(sum(bool(r.result and r.result.get(FOUND)) for r in recs), len(recs))
     return mean_t95(r.result.get(metric.key) for r in recs if r.result is not None)
 
 
 def _text(e: Estimate, metric: Metric) -> str:
-    if metric.key == SUCCESS:
+    if metric.key in RATES:
         return fmt_rate(e)
     return fmt_mean(e, metric.scale, metric.digits)
 

@@ -60,6 +60,7 @@ def synthetic_trial(spec, config: SyntheticConfig = SyntheticConfig()) -> tuple[
         "explored_curve": curve, "decisions": int(rng.integers(5, 40)),
         "planning_ms_median": float(np.median(planning)), "planning_ms_p90": float(np.percentile(planning, 90)),
         "wall_s": float(config.sleep_s), "true_detection": bool(found) if found else None,
+        "found": bool(found),
     }
     return {"trial_fn": "compass_manip.bench.synthetic:synthetic_trial", "synthetic": asdict(config),
             "method": spec.method}, result

@@ -16,6 +16,9 @@ from ..sim.grasp_exec import GraspExecConfig
 
 #: Detector kinds a trial may use: the registered image detectors plus the oracle.
 ORACLE_DETECTOR = "oracle-segmentation"
+#: the paper's grasp ablation as a trial method: COMPASS's exploration, then the grasp
+#: selection without its constraints (`GraspSelectConfig(constrained=False)`)
+GRASP_ABLATION_METHOD = "compass-no-grasp-constraints"
 
 
 @dataclass(frozen=True)

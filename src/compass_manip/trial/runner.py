@@ -8,7 +8,7 @@ the accepted detection, the target's surroundings); the method never does.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -21,7 +21,7 @@ from ..sim.certify import certified_scene
 from ..sim.levels import check_level
 from ..sim.oracle import OracleSegmentationDetector, detection_is_target, target_surroundings
 from ..sim.world import World
-from .config import ORACLE_DETECTOR, TrialConfig
+from .config import GRASP_ABLATION_METHOD, ORACLE_DETECTOR, TrialConfig
 from .grasp_stage import run_grasp_stage
 from .machine import MachineOutcome, TrialMachine
 from .metrics import MetricsRecorder
@@ -39,9 +39,10 @@ class TrialSpec:
 
 
 def trial_methods() -> tuple[str, ...]:
-    """Every method a trial can run: the registered exploration methods and the oracle
-    reference (built here, never by the registry, so no method package can reach it)."""
-    return (*available_methods(), ORACLE_METHOD)
+    """Every method a trial can run: the registered exploration methods, the grasp ablation
+    (COMPASS, unconstrained grasp selection) and the oracle reference (built here, never by
+    the registry, so no method package can reach it)."""
+    return (*available_methods(), GRASP_ABLATION_METHOD, ORACLE_METHOD)
 
 
 def check_spec(spec: TrialSpec) -> TrialSpec:
@@ -82,6 +83,11 @@ def run_trial_full(spec: TrialSpec, config: TrialConfig | None = None, progress=
     recorder) is told of every event and closed at the end, also when the trial raises."""
     config = config or TrialConfig()
     check_spec(spec)
+    method_name = spec.method
+    if spec.method == GRASP_ABLATION_METHOD:
+        method_name = "compass"
+        select = replace(config.grasp.select, constrained=False)
+        config = replace(config, grasp=replace(config.grasp, select=select))
     wall0 = time.perf_counter()
     scene = certified_scene(spec.level, spec.scene, spec.seed).scene
     world = World(scene)
@@ -92,7 +98,7 @@ def run_trial_full(spec: TrialSpec, config: TrialConfig | None = None, progress=
     if spec.method == ORACLE_METHOD:
         method = make_oracle_method(scene, task, config.method, rng, q0, world.camera.K)
     else:
-        method = make_method(spec.method, task, config.method, rng, q0, world.camera.K)
+        method = make_method(method_name, task, config.method, rng, q0, world.camera.K)
     oracle = config.detector_kind == ORACLE_DETECTOR
     detector = OracleSegmentationDetector(world.target_label) if oracle else DETECTORS[config.detector_kind](
         config.detector)
