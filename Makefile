@@ -16,7 +16,7 @@ venv: .venv/.installed
 .venv/.installed: pyproject.toml
 	test -x $(PY) || python3 -m venv .venv
 	$(PIP) install --quiet --upgrade pip
-	$(PIP) install --quiet -e '.[test]'
+	$(PIP) install --quiet -e '.[test,viz]'
 	$(PIP) install --quiet --no-deps dm-robotics-panda==0.4.8
 	touch $@
 
