@@ -22,6 +22,14 @@ def test_demo_prints_where_the_outputs_are(tmp_path, capsys):
     text = capsys.readouterr().out
     assert "outputs in" in text and "camera_path.png" in text
     assert "trial.mp4" not in text and not (out / "trial.mp4").exists()
+    verdict = json.load(open(out / "result.json"))["result"]
+    first = text.splitlines()[0]
+    if verdict["success"]:
+        assert "and grasped it" in first
+    elif verdict["found"]:  # the find is reported even when the grasp fails after it
+        assert f"found the target at {verdict['tft_s']:.1f} s, then failed: {verdict['failure']}" in first
+    else:
+        assert f"failed: {verdict['failure']}" in first and "found" not in first
 
 
 def test_demo_rejects_bad_input(capsys):

@@ -42,7 +42,12 @@ def run(args) -> int:
     if args.json:
         print(json.dumps({**r, "outputs": paths}))
         return 0
-    verdict = f"found the target at {r['tft_s']:.1f} s" if r["success"] else f"failed: {r['failure']}"
+    if r["success"]:
+        verdict = f"found the target at {r['tft_s']:.1f} s and grasped it"
+    elif r.get("found"):
+        verdict = f"found the target at {r['tft_s']:.1f} s, then failed: {r['failure']}"
+    else:
+        verdict = f"failed: {r['failure']}"
     print(f"{result_run.result.method} {verdict} after {r['decisions']} decisions, {r['collisions']} collisions, "
           f"{r['wall_s']:.1f} s wall time")
     print(f"outputs in {os.path.abspath(out)}:")
