@@ -1,6 +1,9 @@
 """The trial state machine: NFA -> EXPLORE (sense, integrate, detect, decide, move) ->
-FOUND -> GRASP -> DONE, or a failure named by its reason. Without a grasp stage (find-only
-trials) FOUND -> DONE. GRASP (`grasp_stage.run_grasp_stage`) selects a grasp on the method's
+FOUND -> INSPECT -> GRASP -> DONE, or a failure named by its reason. Without a grasp stage
+(find-only trials) FOUND -> DONE. INSPECT (optional, `GraspTrialConfig.inspect_views`): the
+method, given the detected target's points as points of interest, decides a few more views
+on its own map, whose frames feed that map (its motions and plans count like the
+exploration's), so the grasp selection sees the target's surroundings. GRASP (`grasp_stage.run_grasp_stage`) selects a grasp on the method's
 map and executes it in physics; the clock advances by its charge and motions.
 
 The simulated clock advances by each trajectory's duration (Panda limits, `motion.timing`)
@@ -36,6 +39,7 @@ class TrialState(enum.Enum):
     NFA = "nfa"
     EXPLORE = "explore"
     FOUND = "found"
+    INSPECT = "inspect"
     GRASP = "grasp"
     DONE = "done"
     FAILED = "failed"
@@ -46,8 +50,8 @@ class MachineOutcome:
     """How the run ended: the failure (None when found), the accepted detection (a
     `perception.buffer.BufferedDetection`) and the time it was found [s], the end time [s],
     the states visited in order, the executed camera positions (N, 3) [m], the final
-    configuration q_end (7,) [rad] and the GRASP state's `GraspStageResult` (None when not
-    entered)."""
+    configuration q_end (7,) [rad], the GRASP state's `GraspStageResult` (None when not
+    entered) and the number of INSPECT views reached."""
 
     failure: TrialFailure | None
     found: object | None
@@ -57,17 +61,19 @@ class MachineOutcome:
     camera_path: np.ndarray
     q_end: np.ndarray
     grasp: object | None = None
+    n_inspected: int = 0
 
 
 class TrialMachine:
     """Runs one trial of `method` in `world` (see the module docstring). `pass_frames`: push
     whole frames (with labels) to the buffer, for the oracle detector only. grasp: the GRASP
     state, `grasp(q_current, detection, executed_paths) -> GraspStageResult`, or None for a
-    find-only trial. `observer`: a `trial.observer.TrialObserver` told of every event
+    find-only trial. n_inspect: INSPECT decisions
+    before GRASP (0: none). `observer`: a `trial.observer.TrialObserver` told of every event
     (read-only; video, Rerun)."""
 
     def __init__(self, world, method, buffer, metrics, config, progress=None, pass_frames: bool = False,
-                 grasp=None, observer=None) -> None:
+                 grasp=None, observer=None, n_inspect: int = 0) -> None:
         self.world, self.method, self.buffer, self.metrics, self.config = world, method, buffer, metrics, config
         self.progress = progress
         self.observer = observer if observer is not None else TrialObserver()
@@ -76,7 +82,9 @@ class TrialMachine:
         self.states: list[TrialState] = []
         self.cam: list[np.ndarray] = []
         self.grasp = grasp
+        self.n_inspect = n_inspect
         self.moved: list[np.ndarray] = []
+        self.n_inspected = 0
 
     def _feed(self, frame) -> None:
         obs = frame.observation()
@@ -145,6 +153,8 @@ class TrialMachine:
             if t_found > limit:
                 failure, found, t_found = TrialFailure.TIME_LIMIT, None, None
         grasped = None
+        if failure is None and found is not None and self.grasp is not None and self.n_inspect > 0:
+            failure = self._inspect(found.detection, ex_cfg, render_seg)
         if failure is None and found is not None and self.grasp is not None:
             self._enter(TrialState.GRASP)
             grasped = self.grasp(self.world.q, found.detection, self.moved)
@@ -156,6 +166,40 @@ class TrialMachine:
             failure = grasped.failure
         self._enter(TrialState.DONE if failure is None else TrialState.FAILED)
         outcome = MachineOutcome(failure, found, t_found, self.t, tuple(self.states),
-                                 np.array(self.cam).reshape(-1, 3), self.world.q, grasped)
+                                 np.array(self.cam).reshape(-1, 3), self.world.q, grasped, self.n_inspected)
         self.observer.end(outcome)
         return outcome
+
+    def _inspect(self, detection, ex_cfg, render_seg) -> TrialFailure | None:
+        """INSPECT: the method is given the detection's points as points of interest and
+        decides up to n_inspect more views, executed like the exploration's (their plans
+        count in MPSR, their charge and motion advance the clock, their frames feed the
+        map). A stop ends the inspection (the grasp is still tried); a contact on the way
+        ends the trial (COLLISION)."""
+        config = self.config
+        pts = np.asarray(detection.points_world, dtype=np.float64).reshape(-1, 3)
+        for _ in range(self.n_inspect):
+            self._enter(TrialState.INSPECT)
+            self.method.add_points_of_interest(pts)
+            d = self.method.decide()
+            self.metrics.decision(d)
+            self.observer.decision(self.t, d, self.method)
+            self.t += d.compute_s if config.clock.measured else config.clock.planning_charge_s
+            if d.stop is not None or d.path is None:
+                break
+            traj = time_parameterize(d.path, config.timing)
+            t_start = self.t
+            res = execute(self.world, traj, ex_cfg, t0=t_start)
+            self.observer.motion(traj, t_start, res.t_end)
+            for f in res.frames:
+                self._feed(f)
+            self.t = res.t_end
+            self.metrics.motion(traj, t_start, res.t_end)
+            if res.contacts:
+                self.metrics.collisions += len(res.contacts)
+                return TrialFailure.COLLISION
+            self.method.executed(d.path)
+            self.moved.append(np.asarray(d.path))
+            self._feed(self.world.render(res.q_end, t=self.t, rgb=True, seg=render_seg))
+            self.n_inspected += 1
+        return None

@@ -113,7 +113,8 @@ def run_trial_full(spec: TrialSpec, config: TrialConfig | None = None, progress=
             return run_grasp_stage(world, method.occupancy, detection, task, q, moved, config.grasp, grasp_rng, charge)
     try:
         outcome = TrialMachine(world, method, buffer, metrics, config, progress, pass_frames=oracle,
-                               grasp=grasp, observer=observer).run()
+                               grasp=grasp, observer=observer,
+                               n_inspect=config.grasp.inspect_views if config.grasp.enabled else 0).run()
     finally:
         buffer.close()
         world.close()
