@@ -13,6 +13,7 @@ from ..motion.timing import TimingConfig
 from ..perception.buffer import BufferConfig
 from ..perception.detector import DETECTORS, DetectorConfig
 from ..sim.grasp_exec import GraspExecConfig
+from .inspect import InspectConfig
 
 #: Detector kinds a trial may use: the registered image detectors plus the oracle.
 ORACLE_DETECTOR = "oracle-segmentation"
@@ -51,9 +52,8 @@ class GraspTrialConfig:
     along its executed way (its own space in the map), max_moved_configs of that way used;
     near_body_free: unknown voxels the arm's links 0-4 sweep near home count as free (an
     assumption: a wrist camera never sees the space its own elbow moves through);
-    inspect_views: INSPECT decisions between FOUND and GRASP (0: off): the method, given the
-    detection's points as points of interest, chooses and plans up to this many more views
-    (`machine.TrialMachine`), so its map sees the target's surroundings before the grasp."""
+    inspect: the INSPECT views between FOUND and GRASP (`trial.inspect.InspectConfig`;
+    n_views=0: off): views near the current configuration that see the hand's way in."""
 
     enabled: bool = True
     target: TargetConfig = field(default_factory=TargetConfig)
@@ -62,12 +62,9 @@ class GraspTrialConfig:
     moved_margin: float = 0.02
     max_moved_configs: int = 400
     near_body_free: bool = True
-    inspect_views: int = 3
+    inspect: InspectConfig = field(default_factory=InspectConfig)
 
     def __post_init__(self) -> None:
-        if isinstance(self.inspect_views, bool) or not isinstance(self.inspect_views, int) \
-                or not 0 <= self.inspect_views <= 20:
-            raise CompassInputError(f"inspect_views {self.inspect_views!r} is not allowed; use an integer 0..20")
         if not 0.0 <= self.moved_margin <= 0.1 or not 1 <= self.max_moved_configs <= 100000:
             raise CompassInputError(f"moved_margin {self.moved_margin} m / max_moved_configs "
                                     f"{self.max_moved_configs} not allowed; use 0..0.1 m and 1..100000")

@@ -1,9 +1,9 @@
 """The trial state machine: NFA -> EXPLORE (sense, integrate, detect, decide, move) ->
 FOUND -> INSPECT -> GRASP -> DONE, or a failure named by its reason. Without a grasp stage
-(find-only trials) FOUND -> DONE. INSPECT (optional, `GraspTrialConfig.inspect_views`): the
-method, given the detected target's points as points of interest, decides a few more views
-on its own map, whose frames feed that map (its motions and plans count like the
-exploration's), so the grasp selection sees the target's surroundings. GRASP (`grasp_stage.run_grasp_stage`) selects a grasp on the method's
+(find-only trials) FOUND -> DONE. INSPECT (optional, `GraspTrialConfig.inspect`, `trial.inspect`): a few
+views planned on the method's map and checker that look at the space in front of the
+detected target where the hand will come in; their frames feed that map (their motions and
+plans count like the exploration's). GRASP (`grasp_stage.run_grasp_stage`) selects a grasp on the method's
 map and executes it in physics; the clock advances by its charge and motions.
 
 The simulated clock advances by each trajectory's duration (Panda limits, `motion.timing`)
@@ -68,12 +68,13 @@ class TrialMachine:
     """Runs one trial of `method` in `world` (see the module docstring). `pass_frames`: push
     whole frames (with labels) to the buffer, for the oracle detector only. grasp: the GRASP
     state, `grasp(q_current, detection, executed_paths) -> GraspStageResult`, or None for a
-    find-only trial. n_inspect: INSPECT decisions
-    before GRASP (0: none). `observer`: a `trial.observer.TrialObserver` told of every event
+    find-only trial. inspect: the INSPECT
+    state before GRASP, `inspect(q_current, target_points) -> trial.inspect.InspectPlan`,
+    called up to n_inspect times (None: no INSPECT). `observer`: a `trial.observer.TrialObserver` told of every event
     (read-only; video, Rerun)."""
 
     def __init__(self, world, method, buffer, metrics, config, progress=None, pass_frames: bool = False,
-                 grasp=None, observer=None, n_inspect: int = 0) -> None:
+                 grasp=None, observer=None, inspect=None, n_inspect: int = 0) -> None:
         self.world, self.method, self.buffer, self.metrics, self.config = world, method, buffer, metrics, config
         self.progress = progress
         self.observer = observer if observer is not None else TrialObserver()
@@ -82,7 +83,7 @@ class TrialMachine:
         self.states: list[TrialState] = []
         self.cam: list[np.ndarray] = []
         self.grasp = grasp
-        self.n_inspect = n_inspect
+        self.inspect, self.n_inspect = inspect, n_inspect
         self.moved: list[np.ndarray] = []
         self.n_inspected = 0
 
@@ -153,7 +154,7 @@ class TrialMachine:
             if t_found > limit:
                 failure, found, t_found = TrialFailure.TIME_LIMIT, None, None
         grasped = None
-        if failure is None and found is not None and self.grasp is not None and self.n_inspect > 0:
+        if failure is None and found is not None and self.grasp is not None and self.inspect is not None:
             failure = self._inspect(found.detection, ex_cfg, render_seg)
         if failure is None and found is not None and self.grasp is not None:
             self._enter(TrialState.GRASP)
@@ -171,23 +172,22 @@ class TrialMachine:
         return outcome
 
     def _inspect(self, detection, ex_cfg, render_seg) -> TrialFailure | None:
-        """INSPECT: the method is given the detection's points as points of interest and
-        decides up to n_inspect more views, executed like the exploration's (their plans
-        count in MPSR, their charge and motion advance the clock, their frames feed the
-        map). A stop ends the inspection (the grasp is still tried); a contact on the way
-        ends the trial (COLLISION)."""
+        """INSPECT: up to n_inspect planned views of the hand's way in to the detected
+        target (`trial.inspect`), executed like the exploration's: each plan counts in MPSR,
+        its charge and motion advance the clock, its frames feed the method's map. A view
+        that cannot be planned ends the inspection (the grasp is still tried); a contact on
+        the way ends the trial (COLLISION)."""
         config = self.config
         pts = np.asarray(detection.points_world, dtype=np.float64).reshape(-1, 3)
-        for _ in range(self.n_inspect):
+        for _ in range(self.n_inspect if len(pts) else 0):
             self._enter(TrialState.INSPECT)
-            self.method.add_points_of_interest(pts)
-            d = self.method.decide()
-            self.metrics.decision(d)
-            self.observer.decision(self.t, d, self.method)
-            self.t += d.compute_s if config.clock.measured else config.clock.planning_charge_s
-            if d.stop is not None or d.path is None:
+            p = self.inspect(self.world.q, pts)
+            self.metrics.plans_attempted += 1
+            self.t += p.plan_time_s if config.clock.measured else config.clock.planning_charge_s
+            if p.path is None:
                 break
-            traj = time_parameterize(d.path, config.timing)
+            self.metrics.plans_succeeded += 1
+            traj = time_parameterize(p.path, config.timing)
             t_start = self.t
             res = execute(self.world, traj, ex_cfg, t0=t_start)
             self.observer.motion(traj, t_start, res.t_end)
@@ -198,8 +198,8 @@ class TrialMachine:
             if res.contacts:
                 self.metrics.collisions += len(res.contacts)
                 return TrialFailure.COLLISION
-            self.method.executed(d.path)
-            self.moved.append(np.asarray(d.path))
+            self.method.executed(p.path)
+            self.moved.append(np.asarray(p.path))
             self._feed(self.world.render(res.q_end, t=self.t, rgb=True, seg=render_seg))
             self.n_inspected += 1
         return None
