@@ -120,3 +120,4 @@ def plan_inspect_view(checker, kin, occ: OccupancyMap, K: np.ndarray, points: np
     if not res.success:
         return InspectPlan(None, 0, len(Q), time.perf_counter() - t0)
     return InspectPlan(res.path, int(gain[order[res.goal_index]]), len(Q), time.perf_counter() - t0)
+
