@@ -9,7 +9,8 @@ scenes: the blocking unknown voxels lay 6-13 cm in front of the target, at its h
 checker, scores each by the unknown voxels of the corridor box (the target's points grown
 `corridor` [m] toward the opening, `side` [m] sideways and up to `above` [m] above the
 target) inside its camera frustum, and plans (the shared planner, same checker) to the best
-few. Nothing here reads ground truth: the map, the checker and the detection's points are
+few (with `occlusion`, the best by that count re-scored by the voxels they see past the
+obstacles already seen). Nothing here reads ground truth: the map, the checker and the detection's points are
 the method's.
 """
 from __future__ import annotations
@@ -30,7 +31,9 @@ class InspectConfig:
     """n_views INSPECT views (0: off); n_samples configurations sampled per view; sigma /
     wrist_sigma [rad] joint perturbation (joints 1-4 / 5-7); corridor / side / above [m]
     of the corridor box; max_range [m] of a counted voxel from the camera; n_goals best
-    views handed to the planner; min_gain unknown corridor voxels a view must see."""
+    views handed to the planner; min_gain unknown corridor voxels a view must see;
+    occlusion: the n_occlusion best views by frustum count are re-scored by the corridor
+    voxels (n_rays of them sampled) they see without a voxel seen occupied in the way."""
 
     n_views: int = 3
     n_samples: int = 300
@@ -42,6 +45,9 @@ class InspectConfig:
     max_range: float = 0.9
     n_goals: int = 5
     min_gain: int = 5
+    occlusion: bool = True
+    n_occlusion: int = 30
+    n_rays: int = 300
     planner: PlannerConfig = field(default_factory=lambda: PlannerConfig(time_budget=0.5))
 
     def __post_init__(self) -> None:
@@ -87,13 +93,43 @@ def frustum_counts(T_world_cam: np.ndarray, K: np.ndarray, points: np.ndarray, m
     """(M,) number of points (N,3) [m] inside each camera's (M,4,4) image and range."""
     if len(points) == 0:
         return np.zeros(len(T_world_cam), dtype=np.int64)
+    return frustum_mask(T_world_cam, K, points, max_range).sum(axis=1)
+
+
+def frustum_mask(T_world_cam: np.ndarray, K: np.ndarray, points: np.ndarray, max_range: float) -> np.ndarray:
+    """(M,N) True where point n (N,3) [m] lies inside camera m's (M,4,4) image and range."""
     P = np.einsum("mji,mnj->mni", T_world_cam[:, :3, :3], points[None] - T_world_cam[:, None, :3, 3])
     z = P[..., 2]
     with np.errstate(divide="ignore", invalid="ignore"):
         u = K[0, 0] * P[..., 0] / z + K[0, 2]
         v = K[1, 1] * P[..., 1] / z + K[1, 2]
-    ok = (z > 0.05) & (z < max_range) & (u >= 0) & (u < 2 * K[0, 2]) & (v >= 0) & (v < 2 * K[1, 2])
-    return ok.sum(axis=1)
+    return (z > 0.05) & (z < max_range) & (u >= 0) & (u < 2 * K[0, 2]) & (v >= 0) & (v < 2 * K[1, 2])
+
+
+def seen_counts(occ: OccupancyMap, T_world_cam: np.ndarray, K: np.ndarray, points: np.ndarray,
+                max_range: float) -> np.ndarray:
+    """(M,) number of points (N,3) [m] each camera (M,4,4) sees: inside its image and range,
+    and no voxel seen occupied on the straight ray to it (sampled every voxel, the last
+    voxel before the point excluded)."""
+    mask = frustum_mask(T_world_cam, K, points, max_range)
+    occupied = occ.state == VoxelState.OCCUPIED
+    shape, step = np.asarray(occ.shape), occ.resolution
+    out = np.zeros(len(T_world_cam), dtype=np.int64)
+    for m in range(len(T_world_cam)):
+        pts = points[mask[m]]
+        if len(pts) == 0:
+            continue
+        eye = T_world_cam[m, :3, 3]
+        d = pts - eye
+        length = np.linalg.norm(d, axis=1)
+        s = np.arange(1, int(np.ceil(length.max() / step)) + 1)[None, :] * step
+        P = eye + (d / length[:, None])[:, None, :] * s[..., None]
+        v = occ.world_to_voxel(P.reshape(-1, 3)).reshape(len(pts), s.shape[1], 3)
+        ok = np.all((v >= 0) & (v < shape), axis=-1) & (s < length[:, None] - step)
+        vc = np.clip(v, 0, shape - 1)
+        blocked = (occupied[vc[..., 0], vc[..., 1], vc[..., 2]] & ok).any(axis=1)
+        out[m] = int(np.count_nonzero(~blocked))
+    return out
 
 
 def plan_inspect_view(checker, kin, occ: OccupancyMap, K: np.ndarray, points: np.ndarray, outward: np.ndarray,
@@ -111,7 +147,14 @@ def plan_inspect_view(checker, kin, occ: OccupancyMap, K: np.ndarray, points: np
     Q = Q[np.array([checker.is_valid(q) for q in Q], dtype=bool)]
     if len(Q) == 0:
         return InspectPlan(None, 0, 0, time.perf_counter() - t0)
-    gain = frustum_counts(kin.T_world_cam_batch(Q), np.asarray(K, dtype=np.float64), target, config.max_range)
+    T = kin.T_world_cam_batch(Q)
+    gain = frustum_counts(T, np.asarray(K, dtype=np.float64), target, config.max_range)
+    if config.occlusion:  # the best by frustum count, re-scored by the corridor voxels they see unoccluded
+        top = np.argsort(-gain, kind="stable")[: config.n_occlusion]
+        sub = target[rng.choice(len(target), min(len(target), config.n_rays), replace=False)]
+        seen = seen_counts(occ, T[top], np.asarray(K, dtype=np.float64), sub, config.max_range)
+        gain = np.zeros_like(gain)
+        gain[top] = np.round(seen * len(target) / len(sub)).astype(np.int64)
     order = np.argsort(-gain, kind="stable")
     order = order[gain[order] >= config.min_gain][: config.n_goals]
     if len(order) == 0:
