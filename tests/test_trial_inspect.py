@@ -9,7 +9,7 @@ import pytest
 from compass_manip.errors import CompassInputError
 from compass_manip.exploration.world_model import WorldModel
 from compass_manip.geometry import look_at
-from compass_manip.mapping.occupancy import MapConfig, OccupancyMap
+from compass_manip.mapping.occupancy import MapConfig, OccupancyMap, VoxelState
 from compass_manip.motion.timing import densify
 from compass_manip.sim.grasp_only import GraspOnlyConfig, oracle_detection, oracle_view
 from compass_manip.sim.scenes import CabinetSpec, Primitive, SceneSpec
@@ -17,7 +17,7 @@ from compass_manip.sim.world import World
 from compass_manip.trial.config import TrialConfig
 from compass_manip.trial.grasp_stage import GraspStageResult
 from compass_manip.trial.inspect import (InspectConfig, InspectPlan, corridor_unknown, frustum_counts,
-                                         plan_inspect_view)
+                                         plan_inspect_view, seen_counts)
 from compass_manip.trial.machine import TrialMachine, TrialState
 
 K = np.array([[300.0, 0.0, 160.0], [0.0, 300.0, 120.0], [0.0, 0.0, 1.0]])
@@ -30,6 +30,16 @@ def test_frustum_counts_points_in_front_inside_the_image_and_range():
     assert frustum_counts(T, K, np.zeros((0, 3)), 0.9).tolist() == [0]
 
 
+def test_seen_counts_drop_points_behind_a_seen_obstacle():
+    occ = OccupancyMap(MapConfig())
+    T = look_at(np.array([0.2, 0.0, 0.5]), np.array([0.7, 0.0, 0.5]))[None]
+    pts = np.array([[0.7, 0.0, 0.5], [0.7, 0.03, 0.52], [0.6, -0.02, 0.48]])
+    assert seen_counts(occ, T, K, pts, 0.9).tolist() == [3]  # unknown space in the way does not block
+    v = occ.world_to_voxel(np.array([[0.65, 0.0, 0.5]]))[0]
+    occ.state[v[0], v[1] - 6:v[1] + 7, v[2] - 6:v[2] + 7] = VoxelState.OCCUPIED  # a wall seen occupied at x = 0.65
+    assert seen_counts(occ, T, K, pts, 0.9).tolist() == [1]  # only the point in front of it
+
+
 def test_corridor_reaches_toward_the_opening_and_holds_only_unknown_voxels():
     occ = OccupancyMap(MapConfig())
     pts = np.array([[0.6, 0.0, 0.35], [0.62, 0.02, 0.42]])
@@ -37,7 +47,7 @@ def test_corridor_reaches_toward_the_opening_and_holds_only_unknown_voxels():
     c = corridor_unknown(occ, pts, np.array([-1.0, 0.0, 0.0]), cfg)  # the opening is at -x
     assert len(c) > 0 and c[:, 0].min() < 0.6 - 0.18 and c[:, 0].max() < 0.62 + 0.05 + 0.02
     assert c[:, 2].min() > 0.35 - 0.02 and c[:, 2].max() < 0.42 + 0.1 + 0.02
-    occ.state[...] = 1  # FREE everywhere: nothing left to see
+    occ.state[...] = VoxelState.FREE  # everywhere: nothing left to see
     assert len(corridor_unknown(occ, pts, np.array([-1.0, 0.0, 0.0]), cfg)) == 0
 
 
