@@ -13,6 +13,7 @@ from ..motion.timing import TimingConfig
 from ..perception.buffer import BufferConfig
 from ..perception.detector import DETECTORS, DetectorConfig
 from ..sim.grasp_exec import GraspExecConfig
+from .inspect import InspectConfig
 
 #: Detector kinds a trial may use: the registered image detectors plus the oracle.
 ORACLE_DETECTOR = "oracle-segmentation"
@@ -50,7 +51,9 @@ class GraspTrialConfig:
     ablation) and physics execution settings; moved_margin [m] added to the robot's spheres
     along its executed way (its own space in the map), max_moved_configs of that way used;
     near_body_free: unknown voxels the arm's links 0-4 sweep near home count as free (an
-    assumption: a wrist camera never sees the space its own elbow moves through)."""
+    assumption: a wrist camera never sees the space its own elbow moves through);
+    inspect: the INSPECT views between FOUND and GRASP (`trial.inspect.InspectConfig`;
+    n_views=0: off): views near the current configuration that see the hand's way in."""
 
     enabled: bool = True
     target: TargetConfig = field(default_factory=TargetConfig)
@@ -59,6 +62,7 @@ class GraspTrialConfig:
     moved_margin: float = 0.02
     max_moved_configs: int = 400
     near_body_free: bool = True
+    inspect: InspectConfig = field(default_factory=InspectConfig)
 
     def __post_init__(self) -> None:
         if not 0.0 <= self.moved_margin <= 0.1 or not 1 <= self.max_moved_configs <= 100000:

@@ -1,6 +1,9 @@
 """The trial state machine: NFA -> EXPLORE (sense, integrate, detect, decide, move) ->
-FOUND -> GRASP -> DONE, or a failure named by its reason. Without a grasp stage (find-only
-trials) FOUND -> DONE. GRASP (`grasp_stage.run_grasp_stage`) selects a grasp on the method's
+FOUND -> INSPECT -> GRASP -> DONE, or a failure named by its reason. Without a grasp stage
+(find-only trials) FOUND -> DONE. INSPECT (optional, `GraspTrialConfig.inspect`, `trial.inspect`): a few
+views planned on the method's map and checker that look at the space in front of the
+detected target where the hand will come in; their frames feed that map (their motions and
+plans count like the exploration's). GRASP (`grasp_stage.run_grasp_stage`) selects a grasp on the method's
 map and executes it in physics; the clock advances by its charge and motions.
 
 The simulated clock advances by each trajectory's duration (Panda limits, `motion.timing`)
@@ -36,6 +39,7 @@ class TrialState(enum.Enum):
     NFA = "nfa"
     EXPLORE = "explore"
     FOUND = "found"
+    INSPECT = "inspect"
     GRASP = "grasp"
     DONE = "done"
     FAILED = "failed"
@@ -46,8 +50,8 @@ class MachineOutcome:
     """How the run ended: the failure (None when found), the accepted detection (a
     `perception.buffer.BufferedDetection`) and the time it was found [s], the end time [s],
     the states visited in order, the executed camera positions (N, 3) [m], the final
-    configuration q_end (7,) [rad] and the GRASP state's `GraspStageResult` (None when not
-    entered)."""
+    configuration q_end (7,) [rad], the GRASP state's `GraspStageResult` (None when not
+    entered) and the number of INSPECT views reached."""
 
     failure: TrialFailure | None
     found: object | None
@@ -57,17 +61,20 @@ class MachineOutcome:
     camera_path: np.ndarray
     q_end: np.ndarray
     grasp: object | None = None
+    n_inspected: int = 0
 
 
 class TrialMachine:
     """Runs one trial of `method` in `world` (see the module docstring). `pass_frames`: push
     whole frames (with labels) to the buffer, for the oracle detector only. grasp: the GRASP
     state, `grasp(q_current, detection, executed_paths) -> GraspStageResult`, or None for a
-    find-only trial. `observer`: a `trial.observer.TrialObserver` told of every event
+    find-only trial. inspect: the INSPECT
+    state before GRASP, `inspect(q_current, target_points) -> trial.inspect.InspectPlan`,
+    called up to n_inspect times (None: no INSPECT). `observer`: a `trial.observer.TrialObserver` told of every event
     (read-only; video, Rerun)."""
 
     def __init__(self, world, method, buffer, metrics, config, progress=None, pass_frames: bool = False,
-                 grasp=None, observer=None) -> None:
+                 grasp=None, observer=None, inspect=None, n_inspect: int = 0) -> None:
         self.world, self.method, self.buffer, self.metrics, self.config = world, method, buffer, metrics, config
         self.progress = progress
         self.observer = observer if observer is not None else TrialObserver()
@@ -76,7 +83,9 @@ class TrialMachine:
         self.states: list[TrialState] = []
         self.cam: list[np.ndarray] = []
         self.grasp = grasp
+        self.inspect, self.n_inspect = inspect, n_inspect
         self.moved: list[np.ndarray] = []
+        self.n_inspected = 0
 
     def _feed(self, frame) -> None:
         obs = frame.observation()
@@ -145,6 +154,8 @@ class TrialMachine:
             if t_found > limit:
                 failure, found, t_found = TrialFailure.TIME_LIMIT, None, None
         grasped = None
+        if failure is None and found is not None and self.grasp is not None and self.inspect is not None:
+            failure = self._inspect(found.detection, ex_cfg, render_seg)
         if failure is None and found is not None and self.grasp is not None:
             self._enter(TrialState.GRASP)
             grasped = self.grasp(self.world.q, found.detection, self.moved)
@@ -156,6 +167,39 @@ class TrialMachine:
             failure = grasped.failure
         self._enter(TrialState.DONE if failure is None else TrialState.FAILED)
         outcome = MachineOutcome(failure, found, t_found, self.t, tuple(self.states),
-                                 np.array(self.cam).reshape(-1, 3), self.world.q, grasped)
+                                 np.array(self.cam).reshape(-1, 3), self.world.q, grasped, self.n_inspected)
         self.observer.end(outcome)
         return outcome
+
+    def _inspect(self, detection, ex_cfg, render_seg) -> TrialFailure | None:
+        """INSPECT: up to n_inspect planned views of the hand's way in to the detected
+        target (`trial.inspect`), executed like the exploration's: each plan counts in MPSR,
+        its charge and motion advance the clock, its frames feed the method's map. A view
+        that cannot be planned ends the inspection (the grasp is still tried); a contact on
+        the way ends the trial (COLLISION)."""
+        config = self.config
+        pts = np.asarray(detection.points_world, dtype=np.float64).reshape(-1, 3)
+        for _ in range(self.n_inspect if len(pts) else 0):
+            self._enter(TrialState.INSPECT)
+            p = self.inspect(self.world.q, pts)
+            self.metrics.plans_attempted += 1
+            self.t += p.plan_time_s if config.clock.measured else config.clock.planning_charge_s
+            if p.path is None:
+                break
+            self.metrics.plans_succeeded += 1
+            traj = time_parameterize(p.path, config.timing)
+            t_start = self.t
+            res = execute(self.world, traj, ex_cfg, t0=t_start)
+            self.observer.motion(traj, t_start, res.t_end)
+            for f in res.frames:
+                self._feed(f)
+            self.t = res.t_end
+            self.metrics.motion(traj, t_start, res.t_end)
+            if res.contacts:
+                self.metrics.collisions += len(res.contacts)
+                return TrialFailure.COLLISION
+            self.method.executed(p.path)
+            self.moved.append(np.asarray(p.path))
+            self._feed(self.world.render(res.q_end, t=self.t, rgb=True, seg=render_seg))
+            self.n_inspected += 1
+        return None

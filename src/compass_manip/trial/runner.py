@@ -23,6 +23,7 @@ from ..sim.oracle import OracleSegmentationDetector, detection_is_target, target
 from ..sim.world import World
 from .config import GRASP_ABLATION_METHOD, ORACLE_DETECTOR, TrialConfig
 from .grasp_stage import run_grasp_stage
+from .inspect import plan_inspect_view
 from .machine import MachineOutcome, TrialMachine
 from .metrics import MetricsRecorder
 from .oracle_method import ORACLE_METHOD, make_oracle_method
@@ -104,7 +105,15 @@ def run_trial_full(spec: TrialSpec, config: TrialConfig | None = None, progress=
         config.detector)
     buffer = DetectionBuffer(detector, task.target, config.buffer)
     metrics = MetricsRecorder(PandaKinematics(world.robot), target_surroundings(scene, config.surroundings_margin))
-    grasp = None
+    grasp, inspect = None, None
+    own = getattr(getattr(method, "world", None), "kin", None)  # methods with their own world model
+    if config.grasp.enabled and config.grasp.inspect.n_views > 0 and own is not None:
+        outward = np.asarray(task.space.outward, float)
+        insp_rng = np.random.default_rng(np.random.SeedSequence((spec.seed, spec.level, spec.scene, spec.trial, 12)))
+
+        def inspect(q, points):  # on the method's own map and validity checker
+            return plan_inspect_view(method.world.checker, method.world.kin, method.occupancy, world.camera.K,
+                                     points, outward, q, config.grasp.inspect, insp_rng)
     if config.grasp.enabled:
         grasp_rng = np.random.default_rng(np.random.SeedSequence((spec.seed, spec.level, spec.scene, spec.trial, 11)))
         charge = None if config.clock.measured else config.clock.planning_charge_s
@@ -113,7 +122,8 @@ def run_trial_full(spec: TrialSpec, config: TrialConfig | None = None, progress=
             return run_grasp_stage(world, method.occupancy, detection, task, q, moved, config.grasp, grasp_rng, charge)
     try:
         outcome = TrialMachine(world, method, buffer, metrics, config, progress, pass_frames=oracle,
-                               grasp=grasp, observer=observer).run()
+                               grasp=grasp, observer=observer,
+                               inspect=inspect, n_inspect=config.grasp.inspect.n_views).run()
     finally:
         buffer.close()
         world.close()

@@ -1,0 +1,119 @@
+"""INSPECT between FOUND and GRASP: the corridor in front of the target, the frustum count,
+views planned on the method's own checker (never through an invalid configuration) that
+see the corridor, and the machine's INSPECT state (plans counted, the grasp still tried)."""
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from compass_manip.errors import CompassInputError
+from compass_manip.exploration.world_model import WorldModel
+from compass_manip.geometry import look_at
+from compass_manip.mapping.occupancy import MapConfig, OccupancyMap, VoxelState
+from compass_manip.motion.timing import densify
+from compass_manip.sim.grasp_only import GraspOnlyConfig, oracle_detection, oracle_view
+from compass_manip.sim.scenes import CabinetSpec, Primitive, SceneSpec
+from compass_manip.sim.world import World
+from compass_manip.trial.config import TrialConfig
+from compass_manip.trial.grasp_stage import GraspStageResult
+from compass_manip.trial.inspect import (InspectConfig, InspectPlan, corridor_unknown, frustum_counts,
+                                         plan_inspect_view, seen_counts)
+from compass_manip.trial.machine import TrialMachine, TrialState
+
+K = np.array([[300.0, 0.0, 160.0], [0.0, 300.0, 120.0], [0.0, 0.0, 1.0]])
+
+
+def test_frustum_counts_points_in_front_inside_the_image_and_range():
+    T = look_at(np.zeros(3), np.array([1.0, 0.0, 0.0]))[None]
+    pts = np.array([[0.5, 0.0, 0.0], [0.5, 0.05, 0.02], [-0.5, 0.0, 0.0], [0.5, 2.0, 0.0], [1.5, 0.0, 0.0]])
+    assert frustum_counts(T, K, pts, 0.9).tolist() == [2]  # behind, outside the image, beyond range: not counted
+    assert frustum_counts(T, K, np.zeros((0, 3)), 0.9).tolist() == [0]
+
+
+def test_seen_counts_drop_points_behind_a_seen_obstacle():
+    occ = OccupancyMap(MapConfig())
+    T = look_at(np.array([0.2, 0.0, 0.5]), np.array([0.7, 0.0, 0.5]))[None]
+    pts = np.array([[0.7, 0.0, 0.5], [0.7, 0.03, 0.52], [0.6, -0.02, 0.48]])
+    assert seen_counts(occ, T, K, pts, 0.9).tolist() == [3]  # unknown space in the way does not block
+    v = occ.world_to_voxel(np.array([[0.65, 0.0, 0.5]]))[0]
+    occ.state[v[0], v[1] - 6:v[1] + 7, v[2] - 6:v[2] + 7] = VoxelState.OCCUPIED  # a wall seen occupied at x = 0.65
+    assert seen_counts(occ, T, K, pts, 0.9).tolist() == [1]  # only the point in front of it
+
+
+def test_corridor_reaches_toward_the_opening_and_holds_only_unknown_voxels():
+    occ = OccupancyMap(MapConfig())
+    pts = np.array([[0.6, 0.0, 0.35], [0.62, 0.02, 0.42]])
+    cfg = InspectConfig(corridor=0.2, side=0.05, above=0.1)
+    c = corridor_unknown(occ, pts, np.array([-1.0, 0.0, 0.0]), cfg)  # the opening is at -x
+    assert len(c) > 0 and c[:, 0].min() < 0.6 - 0.18 and c[:, 0].max() < 0.62 + 0.05 + 0.02
+    assert c[:, 2].min() > 0.35 - 0.02 and c[:, 2].max() < 0.42 + 0.1 + 0.02
+    occ.state[...] = VoxelState.FREE  # everywhere: nothing left to see
+    assert len(corridor_unknown(occ, pts, np.array([-1.0, 0.0, 0.0]), cfg)) == 0
+
+
+def test_inspect_config_rejects_bad_values():
+    with pytest.raises(CompassInputError, match="n_views"):
+        InspectConfig(n_views=-1)
+    with pytest.raises(CompassInputError, match="sigma"):
+        InspectConfig(sigma=5.0)
+
+
+def test_inspect_view_is_valid_all_the_way_and_sees_the_corridor():
+    cab = CabinetSpec((0.45, -0.3, 0.30), (0.80, 0.3, 0.80))  # an empty, open cabinet
+    target = Primitive("target", "box", (0.02, 0.02, 0.06), (0.60, 0.0, 0.36), 0.2, (0.9, 0.05, 0.05, 1.0), True, 0.08)
+    scene = SceneSpec(level=1, index=0, seed=(0,), cabinet=cab, target=target)
+    world = World(scene)
+    try:
+        rng = np.random.default_rng(0)
+        q_view, _ = oracle_view(world, rng, GraspOnlyConfig())  # a view that sees the target (test fixture)
+        task = scene.task()
+        q_home = np.asarray(world.robot.q_home)
+        wm = WorldModel(q_home, robot=world.robot, task=task)
+        path = np.stack([q_home + (q_view - q_home) * s for s in np.linspace(0.0, 1.0, 8)])
+        for q in path:
+            wm.observe(world.render(q, rgb=False, seg=False).observation())
+        wm.add_swept(path)
+        view = world.render(q_view, rgb=False, seg=True)
+        pts = oracle_detection(world, view)
+        outward = np.asarray(task.space.outward, float)
+        cfg = InspectConfig()
+        before = len(corridor_unknown(wm.occ, pts, outward, cfg))
+        p = plan_inspect_view(wm.checker, wm.kin, wm.occ, world.camera.K, pts, outward, q_view, cfg, rng)
+        assert p.path is not None and p.gain >= cfg.min_gain and p.n_valid > 0
+        assert np.allclose(p.path[0], q_view)
+        dense = densify(p.path, 0.005)
+        assert all(wm.checker.is_valid(q) for q in dense)  # never through an invalid configuration
+        assert not any(world.in_collision(q) for q in dense[::10])  # and free in truth
+        wm.observe(world.render(p.path[-1], rgb=False, seg=False).observation())
+        after = len(corridor_unknown(wm.occ, pts, outward, cfg))
+    finally:
+        world.close()
+    assert after < before  # the new frame saw part of the corridor
+
+
+def test_machine_inspects_between_found_and_grasp_and_counts_the_plans():
+    calls, order = [], []
+    world = SimpleNamespace(q=np.zeros(7), render=lambda q, t=0.0, rgb=True, seg=False: SimpleNamespace(
+        T_world_cam=np.eye(4), observation=lambda: None))
+    method = SimpleNamespace(observe=lambda obs: None, occupancy=None, add_points_of_interest=lambda pts: None)
+    det = SimpleNamespace(t=1.5, points_world=np.ones((20, 3)), T_world_cam=np.eye(4))
+    buffer = SimpleNamespace(push=lambda f: None, sync=lambda: None, take_hints=lambda: np.zeros((0, 3)),
+                             best=lambda: SimpleNamespace(detection=det))
+    metrics = SimpleNamespace(collisions=0, explored_fraction=lambda t, occ: None, plans_attempted=0,
+                              plans_succeeded=0)
+
+    def inspect(q, points):
+        calls.append(points.shape)
+        order.append("inspect")
+        return InspectPlan(None, 0, 0, 0.3)
+
+    def grasp(q, detection, moved):
+        order.append("grasp")
+        return GraspStageResult(None, 2.0, None, None, q, 0)
+
+    m = TrialMachine(world, method, buffer, metrics, TrialConfig(), grasp=grasp, inspect=inspect, n_inspect=3)
+    out = m.run()
+    assert out.states == (TrialState.FOUND, TrialState.INSPECT, TrialState.GRASP, TrialState.DONE)
+    assert order == ["inspect", "grasp"] and calls == [(20, 3)]  # an unplannable view ends INSPECT
+    assert metrics.plans_attempted == 1 and metrics.plans_succeeded == 0 and out.n_inspected == 0
+    assert out.t_end == pytest.approx(0.1 + 2.0)  # the fixed planning charge, then the grasp
