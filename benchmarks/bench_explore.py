@@ -34,12 +34,12 @@ def main() -> None:
         for scene in range(n):
             run = _timed_run(TrialSpec("compass", level, scene, 0, seed))
             r = run.result
-            print(f"[explore] level {level} scene {scene}: {r.failure.name if r.failure else 'found'} "
+            print(f"[explore] level {level} scene {scene}: found {r.found}, {r.failure.name if r.failure else 'success'}, "
                   f"tft {r.tft_s:.1f} s, {r.decisions} decisions, wall {r.wall_s:.1f} s", file=sys.stderr)
             runs.append(run)
         res = [x.result for x in runs]
         ctx = {"level": level, "scenes": n, "load": load_average()}
-        found = [r.success for r in res]
+        found = [r.found for r in res]  # the find (success is end to end: found and grasped)
         emit_value(f"trial.l{level}.find_rate", float(np.mean(found)), "fraction", n=len(res), **ctx)
         att = sum(x.metrics.plans_attempted for x in runs)
         ok = sum(x.metrics.plans_succeeded for x in runs)

@@ -129,21 +129,9 @@ class TrialMachine:
             if d.stop is not None:
                 failure = _STOP_TO_FAILURE[d.stop]
                 break
-            traj = time_parameterize(d.path, config.timing)
-            t_start = self.t
-            res = execute(self.world, traj, ex_cfg, t0=t_start)
-            self.observer.motion(traj, t_start, res.t_end)
-            for f in res.frames:
-                self._feed(f)
-            self.t = res.t_end
-            self.metrics.motion(traj, t_start, res.t_end)
-            if res.contacts:
-                self.metrics.collisions += len(res.contacts)
+            if self._move(d.path, ex_cfg, render_seg):
                 failure = TrialFailure.COLLISION
                 break
-            self.method.executed(d.path)
-            self.moved.append(np.asarray(d.path))
-            self._feed(self.world.render(res.q_end, t=self.t, rgb=True, seg=render_seg))
             self.metrics.explored_fraction(self.t, self.method.occupancy)
             if self.progress is not None:
                 self.progress(f"t = {self.t:6.1f} s  {d.phase.value:7s} decision {self.metrics.decisions:3d}  "
@@ -187,19 +175,28 @@ class TrialMachine:
             if p.path is None:
                 break
             self.metrics.plans_succeeded += 1
-            traj = time_parameterize(p.path, config.timing)
-            t_start = self.t
-            res = execute(self.world, traj, ex_cfg, t0=t_start)
-            self.observer.motion(traj, t_start, res.t_end)
-            for f in res.frames:
-                self._feed(f)
-            self.t = res.t_end
-            self.metrics.motion(traj, t_start, res.t_end)
-            if res.contacts:
-                self.metrics.collisions += len(res.contacts)
+            if self._move(p.path, ex_cfg, render_seg):
                 return TrialFailure.COLLISION
-            self.method.executed(p.path)
-            self.moved.append(np.asarray(p.path))
-            self._feed(self.world.render(res.q_end, t=self.t, rgb=True, seg=render_seg))
             self.n_inspected += 1
         return None
+
+    def _move(self, path, ex_cfg, render_seg) -> bool:
+        """Execute a joint path (n,7) [rad] on the simulated timeline: its frames feed the
+        map and the buffer, the clock advances by its duration; True when the arm touched
+        something (counted as collisions; the method is not told of the motion), else the
+        method is told, the path is kept as the way the arm moved and a frame at its end is fed."""
+        traj = time_parameterize(path, self.config.timing)
+        t_start = self.t
+        res = execute(self.world, traj, ex_cfg, t0=t_start)
+        self.observer.motion(traj, t_start, res.t_end)
+        for f in res.frames:
+            self._feed(f)
+        self.t = res.t_end
+        self.metrics.motion(traj, t_start, res.t_end)
+        if res.contacts:
+            self.metrics.collisions += len(res.contacts)
+            return True
+        self.method.executed(path)
+        self.moved.append(np.asarray(path))
+        self._feed(self.world.render(res.q_end, t=self.t, rgb=True, seg=render_seg))
+        return False
