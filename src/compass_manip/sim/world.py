@@ -375,6 +375,28 @@ class World:
         return uu.ravel(), vv.ravel()
 
 
+def see_through_geoms(world: World) -> list[int]:
+    """Geom ids of the cabinet's top, side boards, face frame and shelves: the boards an
+    overview draws see-through so the inside shows."""
+    m = world.model
+    return [m.geom(p.name).id for p in world.scene.cabinet.boards()
+            if p.name in ("cab_top", "cab_left", "cab_right") or p.name.startswith(("frame_", "cab_shelf"))]
+
+
+def overview_camera(world: World, azimuth: float = -35.0, elevation: float = -30.0,
+                    distance: float = 1.7) -> tuple[mujoco.MjvCamera, mujoco.MjvOption]:
+    """The free camera (front-left, above, aimed between the base and the cabinet; angles in
+    deg, distance in m) and the visual option (collision geoms hidden) of an overview."""
+    cam = mujoco.MjvCamera()
+    cam.type = mujoco.mjtCamera.mjCAMERA_FREE
+    lo, hi = np.array(world.scene.cabinet.interior_min), np.array(world.scene.cabinet.interior_max)
+    cam.lookat[:] = 0.5 * (np.array([0.1, 0.0, 0.4]) + 0.5 * (lo + hi))
+    cam.azimuth, cam.elevation, cam.distance = azimuth, elevation, distance
+    opt = mujoco.MjvOption()
+    opt.geomgroup[:] = [1, 1, 1, 1, 0, 0]
+    return cam, opt
+
+
 def render_overview(world: World, width: int = 640, height: int = 480, azimuth: float = -35.0,
                     elevation: float = -30.0, distance: float = 1.7) -> np.ndarray:
     """An RGB overview of the robot and the scene from a free camera (front-left, above).
@@ -382,19 +404,12 @@ def render_overview(world: World, width: int = 640, height: int = 480, azimuth: 
     The cabinet's top and side boards are drawn see-through so the inside shows.
     """
     m = world.model
-    see_through = [m.geom(p.name).id for p in world.scene.cabinet.boards()
-                   if p.name in ("cab_top", "cab_left", "cab_right") or p.name.startswith(("frame_", "cab_shelf"))]
+    see_through = see_through_geoms(world)
     alpha = m.geom_rgba[see_through, 3].copy()
     renderer = mujoco.Renderer(m, height, width)
     try:
         m.geom_rgba[see_through, 3] = 0.15
-        cam = mujoco.MjvCamera()
-        cam.type = mujoco.mjtCamera.mjCAMERA_FREE
-        lo, hi = np.array(world.scene.cabinet.interior_min), np.array(world.scene.cabinet.interior_max)
-        cam.lookat[:] = 0.5 * (np.array([0.1, 0.0, 0.4]) + 0.5 * (lo + hi))
-        cam.azimuth, cam.elevation, cam.distance = azimuth, elevation, distance
-        opt = mujoco.MjvOption()
-        opt.geomgroup[:] = [1, 1, 1, 1, 0, 0]
+        cam, opt = overview_camera(world, azimuth, elevation, distance)
         renderer.update_scene(world.data, cam, opt)
         return renderer.render().copy()
     finally:

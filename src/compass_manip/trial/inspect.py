@@ -144,7 +144,7 @@ def plan_inspect_view(checker, kin, occ: OccupancyMap, K: np.ndarray, points: np
         return InspectPlan(None, 0, 0, time.perf_counter() - t0)
     scale = np.r_[np.full(4, config.sigma), np.full(3, config.wrist_sigma)]
     Q = np.clip(q_current + rng.normal(0.0, 1.0, (config.n_samples, 7)) * scale, Q_MIN + 1e-3, Q_MAX - 1e-3)
-    Q = Q[np.array([checker.is_valid(q) for q in Q], dtype=bool)]
+    Q = Q[np.asarray(checker.are_valid(Q), dtype=bool)]
     if len(Q) == 0:
         return InspectPlan(None, 0, 0, time.perf_counter() - t0)
     T = kin.T_world_cam_batch(Q)

@@ -51,21 +51,13 @@ class SceneCamera:
     boards see-through, as `sim.world.render_overview`) in its own copy of the model."""
 
     def __init__(self, world, width: int, height: int) -> None:
-        from ..sim.world import World
+        from ..sim.world import World, overview_camera, see_through_geoms
 
         self.world = World(world.scene, world.robot)
         m = self.world.model
-        for p in world.scene.cabinet.boards():
-            if p.name in ("cab_top", "cab_left", "cab_right") or p.name.startswith(("frame_", "cab_shelf")):
-                m.geom_rgba[m.geom(p.name).id, 3] = 0.15
+        m.geom_rgba[see_through_geoms(self.world), 3] = 0.15
         self.renderer = mujoco.Renderer(m, height, width)
-        self.cam = mujoco.MjvCamera()
-        self.cam.type = mujoco.mjtCamera.mjCAMERA_FREE
-        lo, hi = np.array(world.scene.cabinet.interior_min), np.array(world.scene.cabinet.interior_max)
-        self.cam.lookat[:] = 0.5 * (np.array([0.1, 0.0, 0.4]) + 0.5 * (lo + hi))
-        self.cam.azimuth, self.cam.elevation, self.cam.distance = -35.0, -30.0, 2.0
-        self.opt = mujoco.MjvOption()
-        self.opt.geomgroup[:] = [1, 1, 1, 1, 0, 0]
+        self.cam, self.opt = overview_camera(self.world, distance=2.0)
 
     def render(self, qpos: np.ndarray, q_arm: np.ndarray) -> np.ndarray:
         """The scene with every joint at `qpos` (the trial world's, copied) but the arm at q_arm [rad]."""
