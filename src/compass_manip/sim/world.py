@@ -20,6 +20,7 @@ from ..geometry import make_T
 from ..robot.model import (FINGER_JOINTS, GRIPPER_MAX_WIDTH, MJCAM_TO_CV, RobotConfig, build_robot_spec,
                            check_q)
 from ..types import Frame
+from .rgbd import render_rgbd
 from .scenes import Primitive, SceneObject, SceneSpec
 
 GROUP_ROBOT, GROUP_STATIC, GROUP_CLUTTER, GROUP_TARGET = 0, 1, 2, 3
@@ -192,6 +193,12 @@ class World:
         r = self._update_scene()
         return r.render().copy()
 
+    def render_rgbd(self) -> tuple[np.ndarray, np.ndarray]:
+        """(RGB, depth [m]) at the current configuration from one GL pass (`sim.rgbd`);
+        equal to `render_rgb()` and `render_depth()`."""
+        rgb, depth = render_rgbd(self._update_scene())
+        return rgb, self._apply_range(depth)
+
     def render_seg(self) -> np.ndarray:
         """Segmentation labels (H, W) int32: see the module docstring."""
         r = self._update_scene()
@@ -215,10 +222,15 @@ class World:
         """
         if q is not None:
             self.set_q(q)
-        depth = self.raycast_depth() if raycast else self.render_depth()
+        if raycast:
+            depth, image = self.raycast_depth(), None
+        elif rgb:
+            image, depth = self.render_rgbd()
+        else:
+            depth, image = self.render_depth(), None
         return Frame(
             depth=depth,
-            rgb=self.render_rgb() if (rgb and not raycast) else None,
+            rgb=image,
             seg=self.render_seg() if (seg and not raycast) else None,
             K=self.camera.K,
             T_world_cam=self.T_world_cam(),
