@@ -27,7 +27,7 @@ from scipy import ndimage
 from ..errors import CompassInputError
 from ..task import COLOURS, TargetQuery
 from ..types import Observation
-from .target import backproject_image, surface_normals, upright_extents
+from .target import backproject_image, region_normals, upright_extents
 
 #: Shape classes of a TargetQuery grouped by the surface a depth camera sees.
 SHAPE_FAMILY = {"box": "box", "book": "box", "cereal_box": "box", "cylinder": "round", "can": "round",
@@ -205,22 +205,21 @@ class AppearanceDetector:
         if not keep:
             return ()
         pts, _ = backproject_image(depth, obs.K, obs.T_world_cam)
-        nrm, nok = surface_normals(pts)
         slices = ndimage.find_objects(labels)
-        out = [self._region(obs, labels, k, slices[k - 1], pts, nrm, nok, query) for k in keep]
+        out = [self._region(obs, labels, k, slices[k - 1], pts, query) for k in keep]
         return tuple(out)
 
-    def _region(self, obs, labels, k, sl, pts, nrm, nok, query) -> Detection:
+    def _region(self, obs, labels, k, sl, pts, query) -> Detection:
         config = self.config
         H, W = labels.shape
         sub = labels[sl] == k
         rows, cols = np.nonzero(sub)
         rows, cols = rows + sl[0].start, cols + sl[1].start
         P = pts[rows, cols]
+        nrm, nok = region_normals(pts, sl)  # the region's window only (same values as the whole image's)
         inner = ndimage.binary_erosion(sub, iterations=2)
-        ir, ic = np.nonzero(inner & nok[sl])
-        ir, ic = ir + sl[0].start, ic + sl[1].start
-        shape = classify_shape(nrm[ir, ic], pts[ir, ic], obs.T_world_cam[:3, 3], config)
+        ir, ic = np.nonzero(inner & nok)
+        shape = classify_shape(nrm[ir, ic], pts[sl][ir, ic], obs.T_world_cam[:3, 3], config)
         ext = upright_extents(P)
         a, b, c = (float(v) for v in query.size)
         tol = 1.0 + config.size_tolerance
