@@ -27,6 +27,7 @@ from scipy import ndimage
 from ..errors import CompassInputError
 from ..task import COLOURS, TargetQuery
 from ..types import Observation
+from .colour_cache import ColourMaskCache
 from .target import backproject_image, region_normals, upright_extents
 
 #: Shape classes of a TargetQuery grouped by the surface a depth camera sees.
@@ -121,6 +122,13 @@ def colour_mask(rgb: np.ndarray, colour: str, config: DetectorConfig) -> np.ndar
     `task.COLOURS` and within `colour_max_angle_deg` of it (white and grey, which differ
     only in brightness, are told apart by brightness relative to the image's brightest
     achromatic pixels)."""
+    mask = colour_direction_mask(rgb, colour, config)
+    return brightness_split(mask, rgb, colour)
+
+
+def colour_direction_mask(rgb: np.ndarray, colour: str, config: DetectorConfig) -> np.ndarray:
+    """`colour_mask` before the white / grey brightness split: a function of each pixel's
+    own RGB value only (so it can be cached per value, `perception.colour_cache`)."""
     if colour not in COLOURS:
         raise CompassInputError(f"colour {colour!r} is not one of {tuple(COLOURS)}")
     x = np.asarray(rgb, dtype=np.float32)[..., :3] / 255.0
@@ -137,8 +145,14 @@ def colour_mask(rgb: np.ndarray, colour: str, config: DetectorConfig) -> np.ndar
     nearest = cos.argmax(axis=-1)
     same = (nearest == k) | ((colour in _ACHROMATIC) & np.isin(nearest, [names.index(c) for c in _ACHROMATIC]))
     ang_ok = cos[..., k] >= math.cos(math.radians(config.colour_max_angle_deg))
-    mask = same & ang_ok & (val >= config.min_value)
+    return same & ang_ok & (val >= config.min_value)
+
+
+def brightness_split(mask: np.ndarray, rgb: np.ndarray, colour: str) -> np.ndarray:
+    """White and grey, which differ only in brightness, told apart within `mask` by each
+    pixel's brightness relative to the 95th percentile of the mask's (other colours: mask)."""
     if colour in _ACHROMATIC and mask.any():
+        val = (np.asarray(rgb, dtype=np.float32)[..., :3] / 255.0).max(axis=-1)
         bright = np.percentile(val[mask], 95)
         rel = val / max(bright, 1e-6)
         mask &= (rel >= 0.8) if colour == "white" else (rel < 0.8)
@@ -189,13 +203,14 @@ class AppearanceDetector:
 
     def __init__(self, config: DetectorConfig | None = None) -> None:
         self.config = config or DetectorConfig()
+        self._colours = ColourMaskCache(self.config)
 
     def __call__(self, obs: Observation, query: TargetQuery) -> tuple[Detection, ...]:
         if obs.rgb is None:
             raise CompassInputError("AppearanceDetector needs an RGB image; the observation has none")
         config = self.config
         depth = np.asarray(obs.depth, dtype=np.float32)
-        mask = colour_mask(obs.rgb, query.colour, config)
+        mask = self._colours(obs.rgb, query.colour)  # = colour_mask(obs.rgb, query.colour, config)
         mask &= np.isfinite(depth) & (depth > 0) & (depth <= config.max_depth)
         if mask.sum() < config.min_pixels:
             return ()
