@@ -310,12 +310,16 @@ class World:
         m, d = self.model, self.data
         mujoco.mj_collision(m, d)
         out = []
-        for i in range(d.ncon):
+        if d.ncon == 0:
+            return out
+        # only penetrating contacts with a robot geom (scene objects resting on each other are
+        # most of d.contact: filtered as arrays, not one by one)
+        geom, dist = d.contact.geom, d.contact.dist
+        robot = self.is_robot_geom[geom]
+        for i in np.flatnonzero(~(dist >= 0) & (robot[:, 0] | robot[:, 1])):
             c = d.contact[i]
-            g1, g2 = int(c.geom1), int(c.geom2)
-            r1, r2 = self.is_robot_geom[g1], self.is_robot_geom[g2]
-            if c.dist >= 0 or not (r1 or r2):
-                continue
+            g1, g2 = int(geom[i, 0]), int(geom[i, 1])
+            r1, r2 = robot[i, 0], robot[i, 1]
             if r1 and r2:
                 if not include_self or self._self_pair_ignored(m.geom_bodyid[g1], m.geom_bodyid[g2]):
                     continue
