@@ -44,3 +44,41 @@ def render_rgbd(renderer: mujoco.Renderer) -> tuple[np.ndarray, np.ndarray]:
     if ctx is not None:  # EGL / OSMesa / GLFW images are bottom-up
         rgb, depth = np.flipud(rgb), np.flipud(depth)
     return np.ascontiguousarray(rgb), np.ascontiguousarray(depth)
+
+
+_CULLABLE = frozenset(int(t) for t in (mujoco.mjtGeom.mjGEOM_MESH, mujoco.mjtGeom.mjGEOM_BOX, mujoco.mjtGeom.mjGEOM_SPHERE,
+                                       mujoco.mjtGeom.mjGEOM_CAPSULE, mujoco.mjtGeom.mjGEOM_CYLINDER,
+                                       mujoco.mjtGeom.mjGEOM_ELLIPSOID))
+
+
+def view_planes(K: np.ndarray, width: int, height: int, pad_px: float = 2.0) -> np.ndarray:
+    """Inward unit normals (4, 3) in the camera's optical frame of the planes through the
+    camera centre that bound the image (pixel centres at integer coordinates, edges half a
+    pixel out) grown by pad_px pixels: a point p is inside when every `normal . p >= 0`."""
+    fx, fy, cx, cy = K[0, 0], K[1, 1], K[0, 2], K[1, 2]
+    left, right = (cx + 0.5 + pad_px) / fx, (width - 0.5 - cx + pad_px) / fx
+    top, bottom = (cy + 0.5 + pad_px) / fy, (height - 0.5 - cy + pad_px) / fy
+    n = np.array([[1.0, 0.0, left], [-1.0, 0.0, right], [0.0, 1.0, top], [0.0, -1.0, bottom]])
+    return n / np.linalg.norm(n, axis=1, keepdims=True)
+
+
+def cull_outside_view(scene: mujoco.MjvScene, T_world_cam: np.ndarray, planes: np.ndarray, near_m: float,
+                      margin_m: float = 0.01) -> int:
+    """Drop from `scene` (after `update_scene`) every geom whose bounding sphere, grown by
+    margin_m [m], lies wholly outside the view (beyond one side plane, `view_planes`, or
+    before the near clip plane near_m [m]); returns how many. With shadows and reflections
+    off a geom outside the view adds no pixel, so the images do not change; the Panda's
+    visual meshes (about 135,000 triangles), mostly behind the wrist camera, are most of
+    the GL work of a frame. Planes and other unbounded geoms are kept."""
+    R, t = np.asarray(T_world_cam)[:3, :3], np.asarray(T_world_cam)[:3, 3]
+    n = 0
+    for i in range(scene.ngeom):
+        g = scene.geoms[i]
+        if int(g.type) not in _CULLABLE or not g.modelrbound > 0:
+            continue
+        p = (np.asarray(g.pos) - t) @ R
+        r = g.modelrbound + margin_m
+        if p[2] + r < near_m or np.any(planes @ p < -r):
+            g.type = mujoco.mjtGeom.mjGEOM_NONE
+            n += 1
+    return n

@@ -20,7 +20,7 @@ from ..geometry import make_T
 from ..robot.model import (FINGER_JOINTS, GRIPPER_MAX_WIDTH, MJCAM_TO_CV, RobotConfig, build_robot_spec,
                            check_q)
 from ..types import Frame
-from .rgbd import render_rgbd
+from .rgbd import cull_outside_view, render_rgbd, view_planes
 from .scenes import Primitive, SceneObject, SceneSpec
 
 GROUP_ROBOT, GROUP_STATIC, GROUP_CLUTTER, GROUP_TARGET = 0, 1, 2, 3
@@ -113,6 +113,10 @@ class World:
         self._cam_id = m.camera("wrist_cam").id
         self._finger_qpos = [m.jnt_qposadr[m.joint(j).id] for j in FINGER_JOINTS]
         self._renderer: mujoco.Renderer | None = None
+        #: leave geoms wholly outside the wrist camera's view out of its renders (the same
+        #: images, `sim.rgbd.cull_outside_view`); False renders every geom
+        self.cull_outside_view = True
+        self._view_planes = view_planes(self.camera.K, self.camera.width, self.camera.height)
         self._ray_dirs_cam: np.ndarray | None = None
         # geom classification and labels
         body_root = m.body_rootid
@@ -179,6 +183,9 @@ class World:
         r.update_scene(self.data, self._cam_id, self._scene_option)
         r.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = False
         r.scene.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = False
+        if self.cull_outside_view:  # geoms wholly outside the wrist camera's view: no pixel
+            cull_outside_view(r.scene, self.T_world_cam(), self._view_planes,
+                              self.model.vis.map.znear * self.model.stat.extent)
         return r
 
     def render_depth(self) -> np.ndarray:
