@@ -25,15 +25,14 @@ import numpy as np
 from scipy import ndimage
 
 from ..errors import CompassInputError
-from ..task import COLOURS, TargetQuery
+from ..task import TargetQuery
 from ..types import Observation
-from .colour_cache import ColourMaskCache
+from .colour import ColourMaskCache, colour_mask  # noqa: F401 (colour_mask: part of this module's API)
 from .target import backproject_image, region_normals, upright_extents
 
 #: Shape classes of a TargetQuery grouped by the surface a depth camera sees.
 SHAPE_FAMILY = {"box": "box", "book": "box", "cereal_box": "box", "cylinder": "round", "can": "round",
                 "bottle": "round", "mug": "round", "bowl": "round", "sphere": "sphere"}
-_ACHROMATIC = ("white", "grey")
 
 
 class Verdict(enum.Enum):
@@ -115,48 +114,6 @@ class Detection:
 
 class Detector(Protocol):
     def __call__(self, obs: Observation, query: TargetQuery) -> tuple[Detection, ...]: ...
-
-
-def colour_mask(rgb: np.ndarray, colour: str, config: DetectorConfig) -> np.ndarray:
-    """(H, W) bool: pixels whose RGB direction is nearest the named colour's among
-    `task.COLOURS` and within `colour_max_angle_deg` of it (white and grey, which differ
-    only in brightness, are told apart by brightness relative to the image's brightest
-    achromatic pixels)."""
-    mask = colour_direction_mask(rgb, colour, config)
-    return brightness_split(mask, rgb, colour)
-
-
-def colour_direction_mask(rgb: np.ndarray, colour: str, config: DetectorConfig) -> np.ndarray:
-    """`colour_mask` before the white / grey brightness split: a function of each pixel's
-    own RGB value only (so it can be cached per value, `perception.colour_cache`)."""
-    if colour not in COLOURS:
-        raise CompassInputError(f"colour {colour!r} is not one of {tuple(COLOURS)}")
-    x = np.asarray(rgb, dtype=np.float32)[..., :3] / 255.0
-    val = x.max(axis=-1)
-    norm = np.linalg.norm(x, axis=-1) + 1e-9
-    names = list(COLOURS)
-    refs = np.array([COLOURS[n] for n in names], dtype=np.float32)
-    refs /= np.linalg.norm(refs, axis=1, keepdims=True)
-    cos = np.einsum("hwc,kc->hwk", x, refs) / norm[..., None]
-    if colour in _ACHROMATIC:  # one achromatic class for the direction test
-        cos[..., names.index("grey")] = np.maximum(cos[..., names.index("grey")], cos[..., names.index("white")])
-        cos[..., names.index("white")] = cos[..., names.index("grey")]
-    k = names.index(colour)
-    nearest = cos.argmax(axis=-1)
-    same = (nearest == k) | ((colour in _ACHROMATIC) & np.isin(nearest, [names.index(c) for c in _ACHROMATIC]))
-    ang_ok = cos[..., k] >= math.cos(math.radians(config.colour_max_angle_deg))
-    return same & ang_ok & (val >= config.min_value)
-
-
-def brightness_split(mask: np.ndarray, rgb: np.ndarray, colour: str) -> np.ndarray:
-    """White and grey, which differ only in brightness, told apart within `mask` by each
-    pixel's brightness relative to the 95th percentile of the mask's (other colours: mask)."""
-    if colour in _ACHROMATIC and mask.any():
-        val = (np.asarray(rgb, dtype=np.float32)[..., :3] / 255.0).max(axis=-1)
-        bright = np.percentile(val[mask], 95)
-        rel = val / max(bright, 1e-6)
-        mask &= (rel >= 0.8) if colour == "white" else (rel < 0.8)
-    return mask
 
 
 def classify_shape(normals: np.ndarray, points: np.ndarray, cam_pos: np.ndarray,

@@ -46,9 +46,9 @@ def render_rgbd(renderer: mujoco.Renderer) -> tuple[np.ndarray, np.ndarray]:
     return np.ascontiguousarray(rgb), np.ascontiguousarray(depth)
 
 
-_CULLABLE = frozenset(int(t) for t in (mujoco.mjtGeom.mjGEOM_MESH, mujoco.mjtGeom.mjGEOM_BOX, mujoco.mjtGeom.mjGEOM_SPHERE,
-                                       mujoco.mjtGeom.mjGEOM_CAPSULE, mujoco.mjtGeom.mjGEOM_CYLINDER,
-                                       mujoco.mjtGeom.mjGEOM_ELLIPSOID))
+_G = mujoco.mjtGeom
+_CULLABLE = frozenset(int(t) for t in (_G.mjGEOM_MESH, _G.mjGEOM_BOX, _G.mjGEOM_SPHERE, _G.mjGEOM_CAPSULE,
+                                       _G.mjGEOM_CYLINDER, _G.mjGEOM_ELLIPSOID))
 
 
 def view_planes(K: np.ndarray, width: int, height: int, pad_px: float = 2.0) -> np.ndarray:

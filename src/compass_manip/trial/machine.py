@@ -8,9 +8,9 @@ map and executes it in physics; the clock advances by its charge and motions.
 
 The simulated clock advances by each trajectory's duration (Panda limits, `motion.timing`)
 plus a charge per decision (fixed by default, so the same seed gives a bit-identical
-trial; the measured compute time as an option). Camera frames along every trajectory (keyframes
-or a fixed rate, `SensingConfig`) and one at the end of each motion feed the method's map and the detection buffer. Detection
-runs on its own thread while the arm moves, the map integrates and the method decides; the
+trial; the measured compute time as an option). Camera frames along every trajectory
+(keyframes or a fixed rate, `SensingConfig`) and one at the end of each motion feed the
+method's map and the detection buffer. Detection runs on its own thread while the arm moves, the map integrates and the method decides; the
 machine waits for it only at decision points, where it reads the buffer's most-centred
 accepted detection (and hands partial matches to the method as points of interest).
 The target counts as found at the time stamp of the frame holding that detection.

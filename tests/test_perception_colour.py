@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from compass_manip.errors import CompassInputError
-from compass_manip.perception.colour_cache import ColourMaskCache
+from compass_manip.perception.colour import ColourMaskCache
 from compass_manip.perception.detector import DetectorConfig, colour_mask
 from compass_manip.robot.model import Q_HOME
 from compass_manip.sim.certify import certified_scene
