@@ -14,6 +14,13 @@ Prints one JSON object per line (bench.stats). Run: `.venv/bin/python benchmarks
   printed as ray_init_s). On 2 cores shared with other work this is bounded by the load.
 - bench.local_speedup_2_vs_1 / bench.ray_speedup_2_vs_1: the same for 4 synthetic trials
   that each sleep 1 s (scheduling, not compute; Ray only when installed).
+- trial.realtime_factor / trial.realtime_factor_cpu: simulated seconds per wall second and
+  per CPU second of this process (all its threads: the detection worker included, i.e.
+  what one core spends) of whole trials (scene load, simulator and renderer set-up
+  included): COMPASS, default config (grasp stage on), scenes 0-1 of levels 1-4, trial 0,
+  seed 0, one after another in this process after one warm-up trial (numba's cache) and
+  with their scenes certified before; median and p10 (the slow end) over the trials and the pooled ratio
+  (sum of simulated s / sum of wall or CPU s).
 """
 from __future__ import annotations
 
@@ -23,8 +30,10 @@ import tempfile
 import time
 from functools import partial
 
+import numpy as np
+
 from compass_manip.bench.runner import run_sweep
-from compass_manip.bench.stats import emit_samples, emit_value, load_average
+from compass_manip.bench.stats import emit_rate, emit_samples, emit_value, load_average
 from compass_manip.bench.store import ResultsStore, TrialRecord
 from compass_manip.bench.sweep import Spec, SweepConfig
 from compass_manip.bench.synthetic import SyntheticConfig, synthetic_trial
@@ -88,8 +97,34 @@ def real_trials(tmp: str, real, ctx: dict) -> None:
                context="each run includes ray.init and shutdown", **{**ctx, "load_1min": load_average()})
 
 
+def realtime_trials(ctx: dict) -> None:
+    """trial.realtime_factor and trial.realtime_factor_cpu (see the module docstring)."""
+    from compass_manip.trial.runner import TrialSpec, run_trial_full
+
+    from compass_manip.sim.certify import certified_scene
+
+    specs = [TrialSpec("compass", level, scene, 0, 0) for level in (1, 2, 3, 4) for scene in (0, 1)]
+    for spec in specs:  # certified (or read from the scene cache) before the timing
+        certified_scene(spec.level, spec.scene, spec.seed)
+    run_trial_full(TrialSpec("compass", 1, 2, 0, 0))  # warm-up: numba's cache, the renderer
+    sim, wall, cpu = [], [], []
+    for spec in specs:
+        c0, w0 = time.process_time(), time.perf_counter()
+        run = run_trial_full(spec)
+        cpu.append(time.process_time() - c0)
+        wall.append(time.perf_counter() - w0)
+        sim.append(run.outcome.t_end)
+    what = "COMPASS, scenes 0-1 of levels 1-4, trial 0, seed 0, grasp stage on, start-up included"
+    extra = {**ctx, "load_1min": load_average(), "sim_s": round(sum(sim), 1), "what": what}
+    for name, spent in (("trial.realtime_factor", wall), ("trial.realtime_factor_cpu", cpu)):
+        rates = [s / w for s, w in zip(sim, spent)]
+        emit_rate(name, rates, "x", p90=round(float(np.percentile(rates, 90)), 2),
+                  pooled=round(sum(sim) / sum(spent), 2), spent_s=round(sum(spent), 1), **extra)
+
+
 def main() -> None:
     ctx = {"load_1min": load_average(), "cpus": os.cpu_count()}
+    realtime_trials(ctx)
     with tempfile.TemporaryDirectory() as tmp:
         emit_samples("bench.store_add_ms", store_add_ms(tmp), "ms", **ctx)
         n = 200

@@ -6,6 +6,8 @@ from compass_manip.errors import CompassInputError
 from compass_manip.geometry import look_at
 from compass_manip.mapping.occupancy import MapConfig, OccupancyMap, VoxelState
 from compass_manip.mapping.selffilter import SphereBodyFilter
+from compass_manip.robot.model import Q_HOME
+from compass_manip.robot.spheres import panda_sphere_model
 
 K = np.array([[50.0, 0.0, 15.5], [0.0, 50.0, 11.5], [0.0, 0.0, 1.0]])  # 32 x 24 px
 
@@ -43,3 +45,37 @@ def test_integrate_drops_pixels_on_the_body():
     assert not (filtered.state_at(pts[on_body]) == VoxelState.OCCUPIED).any()
     with pytest.raises(CompassInputError, match="point_filter"):
         OccupancyMap(cfg).integrate(depth, K, T, 1.0, point_filter=lambda p: np.ones(3, bool))
+
+
+def _cell_lists_numpy(a, b, dims):
+    """The cell lists built with array operations (the reference for the numba build)."""
+    k = int((b - a).max()) + 1
+    off = np.stack(np.meshgrid(*[np.arange(k)] * 3, indexing="ij"), axis=-1).reshape(-1, 3)
+    cand = a[:, None, :] + off[None]
+    ok = np.all(cand <= b[:, None, :], axis=2)
+    sph = np.broadcast_to(np.arange(len(a))[:, None], ok.shape)[ok]
+    g = cand[ok]
+    cells = (g[:, 0] * dims[1] + g[:, 1]) * dims[2] + g[:, 2]
+    order = np.argsort(cells, kind="stable")
+    return np.searchsorted(cells[order], np.arange(int(np.prod(dims)) + 1)), sph[order]
+
+
+def test_cell_lists_equal_the_array_construction():
+    rng = np.random.default_rng(4)
+    for n in (1, 5, 300):
+        f = SphereBodyFilter(rng.uniform(-0.5, 0.5, (n, 3)), rng.uniform(0.0, 0.12, n), margin=0.01)
+        a = np.clip(np.floor((f.centers_world - np.sqrt(f._r2)[:, None] - f._lo) / f._cell).astype(np.int64), 0,
+                    f._dims - 1)
+        b = np.clip(np.floor((f.centers_world + np.sqrt(f._r2)[:, None] - f._lo) / f._cell).astype(np.int64), 0,
+                    f._dims - 1)
+        start, items = _cell_lists_numpy(a, b, f._dims)
+        assert np.array_equal(f._start, start) and np.array_equal(f._items, items)
+
+
+def test_one_configuration_sphere_centres_equal_the_batch_kernel():
+    model = panda_sphere_model()
+    rng = np.random.default_rng(2)
+    q = Q_HOME + rng.normal(0.0, 0.05, 7)
+    one = model.sphere_centers(q[None])
+    two = model.sphere_centers(np.stack([q, q]))  # the parallel kernel
+    assert np.array_equal(one[0], two[0]) and np.array_equal(one[0], two[1])

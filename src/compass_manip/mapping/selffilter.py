@@ -20,7 +20,7 @@ class SphereBodyFilter:
     """Points inside any of the spheres (centers_world (S, 3) [m], radii (S,) [m]),
     each inflated by `margin` [m] (for depth noise and sphere-fit error).
 
-    Build it once per robot configuration (about 1 ms for the Panda's ~350 spheres); a
+    Build it once per robot configuration (well under 1 ms for the Panda's ~350 spheres); a
     uniform grid of `cell_size` [m] lists the spheres overlapping each cell, so a point is
     tested against the few spheres of its cell only."""
 
@@ -54,16 +54,7 @@ class SphereBodyFilter:
             self._dims = np.floor((hi_s.max(axis=0) - self._lo) / self._cell).astype(np.int64) + 1
             a = np.clip(np.floor((lo_s - self._lo) / self._cell).astype(np.int64), 0, self._dims - 1)
             b = np.clip(np.floor((hi_s - self._lo) / self._cell).astype(np.int64), 0, self._dims - 1)
-            k = int((b - a).max()) + 1  # cells per axis of the largest sphere
-            off = np.stack(np.meshgrid(*[np.arange(k)] * 3, indexing="ij"), axis=-1).reshape(-1, 3)
-            cand = a[:, None, :] + off[None]  # (S, k^3, 3)
-            ok = np.all(cand <= b[:, None, :], axis=2)
-            sph = np.broadcast_to(np.arange(len(c))[:, None], ok.shape)[ok]
-            g = cand[ok]
-            cells = (g[:, 0] * self._dims[1] + g[:, 1]) * self._dims[2] + g[:, 2]
-            order = np.argsort(cells, kind="stable")
-            self._items = sph[order].astype(np.int64)
-            self._start = np.searchsorted(cells[order], np.arange(int(np.prod(self._dims)) + 1)).astype(np.int64)
+            self._start, self._items = _cell_lists(a, b, self._dims)
         else:
             self._lo = np.zeros(3)
             self._cell = 1.0
@@ -77,6 +68,31 @@ class SphereBodyFilter:
             raise CompassInputError(f"points_world must have shape (N, 3), got {p.shape}")
         return _inside_spheres(np.ascontiguousarray(p), self.centers_world, self._r2, self._lo, 1.0 / self._cell,
                                self._dims, self._start, self._items)
+
+
+@njit(cache=True)
+def _cell_lists(a, b, dims):
+    """Cell lists of the grid (CSR): the spheres whose cell boxes a[s]..b[s] (S, 3) (cell
+    indices, inclusive) hold cell c are items[start[c]:start[c + 1]], in sphere order."""
+    n_cells = dims[0] * dims[1] * dims[2]
+    start = np.zeros(n_cells + 1, np.int64)
+    for s in range(a.shape[0]):  # count, then place (a counting sort by cell)
+        for i in range(a[s, 0], b[s, 0] + 1):
+            for j in range(a[s, 1], b[s, 1] + 1):
+                for k in range(a[s, 2], b[s, 2] + 1):
+                    start[(i * dims[1] + j) * dims[2] + k + 1] += 1
+    for c in range(n_cells):
+        start[c + 1] += start[c]
+    items = np.empty(start[n_cells], np.int64)
+    fill = start[:n_cells].copy()
+    for s in range(a.shape[0]):
+        for i in range(a[s, 0], b[s, 0] + 1):
+            for j in range(a[s, 1], b[s, 1] + 1):
+                for k in range(a[s, 2], b[s, 2] + 1):
+                    cell = (i * dims[1] + j) * dims[2] + k
+                    items[fill[cell]] = s
+                    fill[cell] += 1
+    return start, items
 
 
 @njit(cache=True)

@@ -25,14 +25,14 @@ import numpy as np
 from scipy import ndimage
 
 from ..errors import CompassInputError
-from ..task import COLOURS, TargetQuery
+from ..task import TargetQuery
 from ..types import Observation
-from .target import backproject_image, surface_normals, upright_extents
+from .colour import ColourMaskCache, colour_mask  # noqa: F401 (colour_mask: part of this module's API)
+from .target import backproject_image, region_normals, upright_extents
 
 #: Shape classes of a TargetQuery grouped by the surface a depth camera sees.
 SHAPE_FAMILY = {"box": "box", "book": "box", "cereal_box": "box", "cylinder": "round", "can": "round",
                 "bottle": "round", "mug": "round", "bowl": "round", "sphere": "sphere"}
-_ACHROMATIC = ("white", "grey")
 
 
 class Verdict(enum.Enum):
@@ -116,35 +116,6 @@ class Detector(Protocol):
     def __call__(self, obs: Observation, query: TargetQuery) -> tuple[Detection, ...]: ...
 
 
-def colour_mask(rgb: np.ndarray, colour: str, config: DetectorConfig) -> np.ndarray:
-    """(H, W) bool: pixels whose RGB direction is nearest the named colour's among
-    `task.COLOURS` and within `colour_max_angle_deg` of it (white and grey, which differ
-    only in brightness, are told apart by brightness relative to the image's brightest
-    achromatic pixels)."""
-    if colour not in COLOURS:
-        raise CompassInputError(f"colour {colour!r} is not one of {tuple(COLOURS)}")
-    x = np.asarray(rgb, dtype=np.float32)[..., :3] / 255.0
-    val = x.max(axis=-1)
-    norm = np.linalg.norm(x, axis=-1) + 1e-9
-    names = list(COLOURS)
-    refs = np.array([COLOURS[n] for n in names], dtype=np.float32)
-    refs /= np.linalg.norm(refs, axis=1, keepdims=True)
-    cos = np.einsum("hwc,kc->hwk", x, refs) / norm[..., None]
-    if colour in _ACHROMATIC:  # one achromatic class for the direction test
-        cos[..., names.index("grey")] = np.maximum(cos[..., names.index("grey")], cos[..., names.index("white")])
-        cos[..., names.index("white")] = cos[..., names.index("grey")]
-    k = names.index(colour)
-    nearest = cos.argmax(axis=-1)
-    same = (nearest == k) | ((colour in _ACHROMATIC) & np.isin(nearest, [names.index(c) for c in _ACHROMATIC]))
-    ang_ok = cos[..., k] >= math.cos(math.radians(config.colour_max_angle_deg))
-    mask = same & ang_ok & (val >= config.min_value)
-    if colour in _ACHROMATIC and mask.any():
-        bright = np.percentile(val[mask], 95)
-        rel = val / max(bright, 1e-6)
-        mask &= (rel >= 0.8) if colour == "white" else (rel < 0.8)
-    return mask
-
-
 def classify_shape(normals: np.ndarray, points: np.ndarray, cam_pos: np.ndarray,
                    config: DetectorConfig) -> str:
     """'box' | 'round' | 'sphere' | 'unknown' from world normals (N, 3) of a region's
@@ -189,13 +160,14 @@ class AppearanceDetector:
 
     def __init__(self, config: DetectorConfig | None = None) -> None:
         self.config = config or DetectorConfig()
+        self._colours = ColourMaskCache(self.config)
 
     def __call__(self, obs: Observation, query: TargetQuery) -> tuple[Detection, ...]:
         if obs.rgb is None:
             raise CompassInputError("AppearanceDetector needs an RGB image; the observation has none")
         config = self.config
         depth = np.asarray(obs.depth, dtype=np.float32)
-        mask = colour_mask(obs.rgb, query.colour, config)
+        mask = self._colours(obs.rgb, query.colour)  # = colour_mask(obs.rgb, query.colour, config)
         mask &= np.isfinite(depth) & (depth > 0) & (depth <= config.max_depth)
         if mask.sum() < config.min_pixels:
             return ()
@@ -205,22 +177,21 @@ class AppearanceDetector:
         if not keep:
             return ()
         pts, _ = backproject_image(depth, obs.K, obs.T_world_cam)
-        nrm, nok = surface_normals(pts)
         slices = ndimage.find_objects(labels)
-        out = [self._region(obs, labels, k, slices[k - 1], pts, nrm, nok, query) for k in keep]
+        out = [self._region(obs, labels, k, slices[k - 1], pts, query) for k in keep]
         return tuple(out)
 
-    def _region(self, obs, labels, k, sl, pts, nrm, nok, query) -> Detection:
+    def _region(self, obs, labels, k, sl, pts, query) -> Detection:
         config = self.config
         H, W = labels.shape
         sub = labels[sl] == k
         rows, cols = np.nonzero(sub)
         rows, cols = rows + sl[0].start, cols + sl[1].start
         P = pts[rows, cols]
+        nrm, nok = region_normals(pts, sl)  # the region's window only (same values as the whole image's)
         inner = ndimage.binary_erosion(sub, iterations=2)
-        ir, ic = np.nonzero(inner & nok[sl])
-        ir, ic = ir + sl[0].start, ic + sl[1].start
-        shape = classify_shape(nrm[ir, ic], pts[ir, ic], obs.T_world_cam[:3, 3], config)
+        ir, ic = np.nonzero(inner & nok)
+        shape = classify_shape(nrm[ir, ic], pts[sl][ir, ic], obs.T_world_cam[:3, 3], config)
         ext = upright_extents(P)
         a, b, c = (float(v) for v in query.size)
         tol = 1.0 + config.size_tolerance

@@ -47,6 +47,20 @@ def surface_normals(points: np.ndarray, step: int = 2, max_jump: float = 0.01) -
     return n, ok
 
 
+def region_normals(points: np.ndarray, sl: tuple[slice, slice], step: int = 2,
+                   max_jump: float = 0.01) -> tuple[np.ndarray, np.ndarray]:
+    """`surface_normals(points)[0][sl]` and `[1][sl]` without the whole image: the normals
+    are computed on the window `sl` grown by `step` px (clipped to the image), which holds
+    every neighbour a pixel of `sl` needs, so the values are the same."""
+    H, W, _ = points.shape
+    s = int(step)
+    r0, r1 = max(0, sl[0].start - s), min(H, sl[0].stop + s)
+    c0, c1 = max(0, sl[1].start - s), min(W, sl[1].stop + s)
+    n, ok = surface_normals(points[r0:r1, c0:c1], step, max_jump)
+    inner = (slice(sl[0].start - r0, sl[0].stop - r0), slice(sl[1].start - c0, sl[1].stop - c0))
+    return n[inner], ok[inner]
+
+
 def upright_extents(points_world: np.ndarray) -> tuple[float, float, float]:
     """Extents [m] of world points (N, 3) in an upright frame: (major horizontal, minor
     horizontal, vertical), the horizontal axes from the principal axes of their x-y spread.

@@ -57,6 +57,10 @@ class SphereModel:
         """World sphere centres (N,S,3) [m] for Q (N,7) [rad]."""
         Q = check_Q(Q)
         out = np.empty((Q.shape[0], self.n_spheres, 3))
+        if Q.shape[0] == 1:  # one configuration (e.g. a frame's self filter): no parallel launch
+            args = self.kernel_args()
+            sphere_centers_one(Q[0], *args, np.empty((args[1].shape[0], 4, 4)), out[0])
+            return out
         return sphere_centers_kernel(Q, *self.kernel_args(), out)
 
 

@@ -2,7 +2,10 @@
 
 The arm follows the trajectory exactly (no dynamics); every `check_step` [rad] of joint
 motion the robot is tested against the scene with MuJoCo's collision detection, and camera
-frames are rendered at `frame_rate` [Hz] of simulated time.
+frames are rendered at `frame_rate` [Hz] of simulated time, or, with a `KeyframeRule`, at
+the contact-check samples where the camera has moved or turned enough since the last frame
+(`sim.keyframes`; the motion's start pose is the first reference, its last sample is left
+to the caller, which renders the end of every motion).
 """
 from __future__ import annotations
 
@@ -14,6 +17,7 @@ from ..errors import CompassInputError, real_number
 from ..robot.kinematics import MAX_FINGER_WIDTH
 from ..robot.model import check_q
 from ..types import Frame, Trajectory
+from .keyframes import KeyframeRule, KeyframeTracker
 from .world import Contact, World
 
 
@@ -21,7 +25,8 @@ from .world import Contact, World
 class ExecutorConfig:
     """frame_rate [Hz] of camera frames along the motion (0 = none); check_step [rad]
     largest joint step between two collision checks; stop_on_contact ends the motion at the
-    first contact (the arm stays at the last contact-free state)."""
+    first contact (the arm stays at the last contact-free state); keyframes: a
+    `KeyframeRule` that replaces frame_rate (None: frames at frame_rate)."""
 
     frame_rate: float = 5.0
     check_step: float = 0.005
@@ -30,8 +35,12 @@ class ExecutorConfig:
     render_rgb: bool = True
     render_seg: bool = True
     raycast_depth: bool = False
+    keyframes: KeyframeRule | None = None
 
     def __post_init__(self) -> None:
+        if self.keyframes is not None and not isinstance(self.keyframes, KeyframeRule):
+            raise CompassInputError(f"ExecutorConfig.keyframes = {self.keyframes!r:.40} is not allowed; "
+                                    "use a KeyframeRule or None")
         rate = real_number(self.frame_rate, "ExecutorConfig.frame_rate", "a finite value 0..1000 Hz")
         if not 0.0 <= rate <= 1000.0:
             raise CompassInputError(f"frame_rate {self.frame_rate} Hz is not allowed; use a finite value 0..1000 Hz")
@@ -115,7 +124,11 @@ def execute(world: World, traj: Trajectory, config: ExecutorConfig | None = None
     traj = check_trajectory(traj)
     ts = sample_times(traj, config.check_step)
     qs = interpolate(traj, ts)
-    period = 1.0 / config.frame_rate if config.frame_rate > 0 else np.inf
+    keyframes = None
+    if config.keyframes is not None:
+        world.set_q(qs[0], finger_width)
+        keyframes = KeyframeTracker(config.keyframes, traj.t[0], world.T_world_cam())
+    period = 1.0 / config.frame_rate if config.frame_rate > 0 and keyframes is None else np.inf
     next_frame = traj.t[0] + period
     contacts: list[TimedContact] = []
     frames: list[Frame] = []
@@ -132,6 +145,9 @@ def execute(world: World, traj: Trajectory, config: ExecutorConfig | None = None
         else:
             q_last_free = q
         t_last = t
+        if keyframes is not None and t < traj.t[-1] and keyframes.due(t, world.T_world_cam()):
+            frames.append(world.render(t=t - traj.t[0] + t0, rgb=config.render_rgb, seg=config.render_seg,
+                                       raycast=config.raycast_depth))
         while t >= next_frame - 1e-9:
             q_frame = interpolate(traj, np.array([next_frame]))[0]
             frames.append(_frame(world, q_frame, next_frame - traj.t[0] + t0, config))

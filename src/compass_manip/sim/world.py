@@ -20,6 +20,7 @@ from ..geometry import make_T
 from ..robot.model import (FINGER_JOINTS, GRIPPER_MAX_WIDTH, MJCAM_TO_CV, RobotConfig, build_robot_spec,
                            check_q)
 from ..types import Frame
+from .rgbd import cull_outside_view, render_rgbd, view_planes
 from .scenes import Primitive, SceneObject, SceneSpec
 
 GROUP_ROBOT, GROUP_STATIC, GROUP_CLUTTER, GROUP_TARGET = 0, 1, 2, 3
@@ -112,6 +113,10 @@ class World:
         self._cam_id = m.camera("wrist_cam").id
         self._finger_qpos = [m.jnt_qposadr[m.joint(j).id] for j in FINGER_JOINTS]
         self._renderer: mujoco.Renderer | None = None
+        #: leave geoms wholly outside the wrist camera's view out of its renders (the same
+        #: images, `sim.rgbd.cull_outside_view`); False renders every geom
+        self.cull_outside_view = True
+        self._view_planes = view_planes(self.camera.K, self.camera.width, self.camera.height)
         self._ray_dirs_cam: np.ndarray | None = None
         # geom classification and labels
         body_root = m.body_rootid
@@ -178,6 +183,9 @@ class World:
         r.update_scene(self.data, self._cam_id, self._scene_option)
         r.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = False
         r.scene.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = False
+        if self.cull_outside_view:  # geoms wholly outside the wrist camera's view: no pixel
+            cull_outside_view(r.scene, self.T_world_cam(), self._view_planes,
+                              self.model.vis.map.znear * self.model.stat.extent)
         return r
 
     def render_depth(self) -> np.ndarray:
@@ -191,6 +199,12 @@ class World:
     def render_rgb(self) -> np.ndarray:
         r = self._update_scene()
         return r.render().copy()
+
+    def render_rgbd(self) -> tuple[np.ndarray, np.ndarray]:
+        """(RGB, depth [m]) at the current configuration from one GL pass (`sim.rgbd`);
+        equal to `render_rgb()` and `render_depth()`."""
+        rgb, depth = render_rgbd(self._update_scene())
+        return rgb, self._apply_range(depth)
 
     def render_seg(self) -> np.ndarray:
         """Segmentation labels (H, W) int32: see the module docstring."""
@@ -215,10 +229,15 @@ class World:
         """
         if q is not None:
             self.set_q(q)
-        depth = self.raycast_depth() if raycast else self.render_depth()
+        if raycast:
+            depth, image = self.raycast_depth(), None
+        elif rgb:
+            image, depth = self.render_rgbd()
+        else:
+            depth, image = self.render_depth(), None
         return Frame(
             depth=depth,
-            rgb=self.render_rgb() if (rgb and not raycast) else None,
+            rgb=image,
             seg=self.render_seg() if (seg and not raycast) else None,
             K=self.camera.K,
             T_world_cam=self.T_world_cam(),
@@ -298,12 +317,16 @@ class World:
         m, d = self.model, self.data
         mujoco.mj_collision(m, d)
         out = []
-        for i in range(d.ncon):
+        if d.ncon == 0:
+            return out
+        # only penetrating contacts with a robot geom (scene objects resting on each other are
+        # most of d.contact: filtered as arrays, not one by one)
+        geom, dist = d.contact.geom, d.contact.dist
+        robot = self.is_robot_geom[geom]
+        for i in np.flatnonzero(~(dist >= 0) & (robot[:, 0] | robot[:, 1])):
             c = d.contact[i]
-            g1, g2 = int(c.geom1), int(c.geom2)
-            r1, r2 = self.is_robot_geom[g1], self.is_robot_geom[g2]
-            if c.dist >= 0 or not (r1 or r2):
-                continue
+            g1, g2 = int(geom[i, 0]), int(geom[i, 1])
+            r1, r2 = robot[i, 0], robot[i, 1]
             if r1 and r2:
                 if not include_self or self._self_pair_ignored(m.geom_bodyid[g1], m.geom_bodyid[g2]):
                     continue

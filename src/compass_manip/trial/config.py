@@ -13,6 +13,7 @@ from ..motion.timing import TimingConfig
 from ..perception.buffer import BufferConfig
 from ..perception.detector import DETECTORS, DetectorConfig
 from ..sim.grasp_exec import GraspExecConfig
+from ..sim.keyframes import KeyframeRule
 from .inspect import InspectConfig
 
 #: Detector kinds a trial may use: the registered image detectors plus the oracle.
@@ -37,11 +38,19 @@ class ClockConfig:
 
 @dataclass(frozen=True)
 class SensingConfig:
-    """frame_rate [Hz] of camera frames along every trajectory (each also rendered at the
-    end of a motion); check_step [rad] of the ground-truth contact checks."""
+    """Camera frames along every trajectory (a frame is also rendered at the end of every
+    motion): keyframes, a `sim.keyframes.KeyframeRule` (a frame when the camera has moved
+    5 cm or turned 0.35 rad since the last one, at least one per second), or None for a fixed
+    frame_rate [Hz]; check_step [rad] of the ground-truth contact checks."""
 
     frame_rate: float = 3.0
     check_step: float = 0.005
+    keyframes: KeyframeRule | None = field(default_factory=KeyframeRule)
+
+    def __post_init__(self) -> None:
+        if self.keyframes is not None and not isinstance(self.keyframes, KeyframeRule):
+            raise CompassInputError(f"SensingConfig.keyframes = {self.keyframes!r:.40} is not allowed; "
+                                    "use a KeyframeRule or None")
 
 
 @dataclass(frozen=True)

@@ -8,9 +8,9 @@ map and executes it in physics; the clock advances by its charge and motions.
 
 The simulated clock advances by each trajectory's duration (Panda limits, `motion.timing`)
 plus a charge per decision (fixed by default, so the same seed gives a bit-identical
-trial; the measured compute time as an option). Camera frames along every trajectory and
-one at the end of each motion feed the method's map and the detection buffer. Detection
-runs on its own thread while the arm moves, the map integrates and the method decides; the
+trial; the measured compute time as an option). Camera frames along every trajectory
+(keyframes or a fixed rate, `SensingConfig`) and one at the end of each motion feed the
+method's map and the detection buffer. Detection runs on its own thread while the arm moves, the map integrates and the method decides; the
 machine waits for it only at decision points, where it reads the buffer's most-centred
 accepted detection (and hands partial matches to the method as points of interest).
 The target counts as found at the time stamp of the frame holding that detection.
@@ -104,7 +104,7 @@ class TrialMachine:
         limit = config.time_limit_s
         render_seg = self.pass_frames
         ex_cfg = ExecutorConfig(frame_rate=config.sensing.frame_rate, check_step=config.sensing.check_step,
-                                render_rgb=True, render_seg=render_seg)
+                                render_rgb=True, render_seg=render_seg, keyframes=config.sensing.keyframes)
         q0 = self.world.q
         self.observer.start(self.world, self.method)
         self._feed(self.world.render(q0, t=0.0, rgb=True, seg=render_seg))

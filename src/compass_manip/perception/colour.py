@@ -1,0 +1,94 @@
+"""The detector's colour test: `colour_mask`, and `ColourMaskCache`, the same masks memoised
+per RGB value.
+
+The colour test of a pixel (its RGB direction against every named colour, before the
+white / grey brightness split) depends on that pixel's own 8-bit RGB value only. A camera
+moving through one scene sees mostly the same few thousand values frame after frame, so the
+cache keeps the per-value answers in a table of 2^24 entries per colour (16 MB) and each
+frame computes only the values it has not met before; the brightness split, which depends
+on the whole image, runs on every frame (tests/test_perception_colour.py checks the
+cache's masks against `colour_mask`).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..errors import CompassInputError
+from ..task import COLOURS
+
+_ACHROMATIC = ("white", "grey")
+_UNKNOWN, _NO, _YES = 0, 1, 2
+
+
+def colour_mask(rgb: np.ndarray, colour: str, config) -> np.ndarray:
+    """(H, W) bool: pixels whose RGB direction is nearest the named colour's among
+    `task.COLOURS` and within `config.colour_max_angle_deg` of it, at least
+    `config.min_value` bright (config: a `detector.DetectorConfig`; white and grey, which
+    differ only in brightness, are told apart by brightness relative to the image's
+    brightest achromatic pixels)."""
+    mask = colour_direction_mask(rgb, colour, config)
+    return brightness_split(mask, rgb, colour)
+
+
+def colour_direction_mask(rgb: np.ndarray, colour: str, config) -> np.ndarray:
+    """`colour_mask` before the white / grey brightness split: a function of each pixel's
+    own RGB value only (so it can be cached per value, `ColourMaskCache`)."""
+    if colour not in COLOURS:
+        raise CompassInputError(f"colour {colour!r} is not one of {tuple(COLOURS)}")
+    x = np.asarray(rgb, dtype=np.float32)[..., :3] / 255.0
+    val = x.max(axis=-1)
+    norm = np.linalg.norm(x, axis=-1) + 1e-9
+    names = list(COLOURS)
+    refs = np.array([COLOURS[n] for n in names], dtype=np.float32)
+    refs /= np.linalg.norm(refs, axis=1, keepdims=True)
+    cos = np.einsum("hwc,kc->hwk", x, refs) / norm[..., None]
+    if colour in _ACHROMATIC:  # one achromatic class for the direction test
+        cos[..., names.index("grey")] = np.maximum(cos[..., names.index("grey")], cos[..., names.index("white")])
+        cos[..., names.index("white")] = cos[..., names.index("grey")]
+    k = names.index(colour)
+    nearest = cos.argmax(axis=-1)
+    same = (nearest == k) | ((colour in _ACHROMATIC) & np.isin(nearest, [names.index(c) for c in _ACHROMATIC]))
+    ang_ok = cos[..., k] >= math.cos(math.radians(config.colour_max_angle_deg))
+    return same & ang_ok & (val >= config.min_value)
+
+
+def brightness_split(mask: np.ndarray, rgb: np.ndarray, colour: str) -> np.ndarray:
+    """White and grey, which differ only in brightness, told apart within `mask` by each
+    pixel's brightness relative to the 95th percentile of the mask's (other colours: mask)."""
+    if colour in _ACHROMATIC and mask.any():
+        val = (np.asarray(rgb, dtype=np.float32)[..., :3] / 255.0).max(axis=-1)
+        bright = np.percentile(val[mask], 95)
+        rel = val / max(bright, 1e-6)
+        mask &= (rel >= 0.8) if colour == "white" else (rel < 0.8)
+    return mask
+
+
+
+class ColourMaskCache:
+    """`cache(rgb, colour)` = `colour_mask(rgb, colour, config)` for (H, W, 3)
+    uint8 images (other dtypes are computed directly). One cache per detector config."""
+
+    def __init__(self, config) -> None:
+        self.config = config
+        self._tables: dict[str, np.ndarray] = {}
+
+    def __call__(self, rgb: np.ndarray, colour: str) -> np.ndarray:
+        rgb = np.asarray(rgb)
+        if rgb.dtype != np.uint8 or rgb.ndim != 3 or rgb.shape[-1] < 3:
+            return colour_mask(rgb, colour, self.config)
+        table = self._tables.get(colour)
+        if table is None:
+            colour_direction_mask(np.zeros((1, 1, 3), np.uint8), colour, self.config)  # checks the name
+            table = self._tables[colour] = np.zeros(1 << 24, dtype=np.uint8)
+        key = (rgb[..., 0].astype(np.uint32) << 16) | (rgb[..., 1].astype(np.uint32) << 8) | rgb[..., 2]
+        state = table[key]
+        unknown = state == _UNKNOWN
+        if unknown.any():
+            new = np.unique(key[unknown])
+            values = np.stack([new >> 16, (new >> 8) & 255, new & 255], axis=-1).astype(np.uint8)
+            ok = colour_direction_mask(values[:, None, :], colour, self.config)[:, 0]
+            table[new] = np.where(ok, _YES, _NO)
+            state = table[key]
+        return brightness_split(state == _YES, rgb[..., :3], colour)

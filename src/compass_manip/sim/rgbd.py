@@ -1,0 +1,84 @@
+"""RGB and depth from one OpenGL pass of a `mujoco.Renderer`.
+
+`mujoco.Renderer.render()` draws the scene once per image: a frame with RGB and depth costs
+two passes (the depth pass in segmentation colours). The colour and depth buffers of one
+ordinary pass hold both images; reading them together halves the GL work of a frame
+(llvmpipe, the software renderer of a headless machine, spends most of a frame there).
+The depth buffer holds reversed-Z window depth; `zbuffer_to_depth` turns it into metric
+z-depth with the same float32 projection constants and float64 arithmetic as the
+renderer's depth mode, so both give the same numbers (tests/test_rgbd.py checks equality
+with the two-pass images).
+"""
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+
+def zbuffer_to_depth(zbuf: np.ndarray, extent: float, znear: float, zfar: float) -> np.ndarray:
+    """Metric z-depth [m] (float32) of a reversed-Z depth buffer `zbuf` in [0, 1] of a
+    perspective camera whose clip planes are znear * extent and zfar * extent [m]:
+    depth = d / (zbuf + c) with the projection's float32 coefficients (1 -> near, 0 -> far)."""
+    near, far = np.float32(znear * extent), np.float32(zfar * extent)
+    c = -(far + near) / (far - near)
+    d = -(np.float32(2) * far * near) / (far - near)
+    c = np.float32(-0.5) * c - np.float32(0.5)
+    d = np.float32(-0.5) * d
+    return (d / (np.asarray(zbuf).astype(np.float64) + c)).astype(np.float32)
+
+
+def render_rgbd(renderer: mujoco.Renderer) -> tuple[np.ndarray, np.ndarray]:
+    """(rgb (H, W, 3) uint8, depth (H, W) float32 [m]) of the renderer's current scene
+    (after `update_scene`) from one pass; the renderer must be a perspective camera's."""
+    if renderer.scene.camera[0].orthographic:
+        raise ValueError("render_rgbd needs a perspective camera")
+    ctx = renderer._gl_context  # noqa: SLF001 (the renderer's own GL and MuJoCo contexts)
+    if ctx is not None:
+        ctx.make_current()
+    rgb = np.empty((renderer.height, renderer.width, 3), dtype=np.uint8)
+    zbuf = np.empty((renderer.height, renderer.width), dtype=np.float32)
+    mujoco.mjr_render(renderer._rect, renderer.scene, renderer._mjr_context)  # noqa: SLF001
+    mujoco.mjr_readPixels(rgb, zbuf, renderer._rect, renderer._mjr_context)  # noqa: SLF001
+    m = renderer.model
+    depth = zbuffer_to_depth(zbuf, m.stat.extent, m.vis.map.znear, m.vis.map.zfar)
+    if ctx is not None:  # EGL / OSMesa / GLFW images are bottom-up
+        rgb, depth = np.flipud(rgb), np.flipud(depth)
+    return np.ascontiguousarray(rgb), np.ascontiguousarray(depth)
+
+
+_G = mujoco.mjtGeom
+_CULLABLE = frozenset(int(t) for t in (_G.mjGEOM_MESH, _G.mjGEOM_BOX, _G.mjGEOM_SPHERE, _G.mjGEOM_CAPSULE,
+                                       _G.mjGEOM_CYLINDER, _G.mjGEOM_ELLIPSOID))
+
+
+def view_planes(K: np.ndarray, width: int, height: int, pad_px: float = 2.0) -> np.ndarray:
+    """Inward unit normals (4, 3) in the camera's optical frame of the planes through the
+    camera centre that bound the image (pixel centres at integer coordinates, edges half a
+    pixel out) grown by pad_px pixels: a point p is inside when every `normal . p >= 0`."""
+    fx, fy, cx, cy = K[0, 0], K[1, 1], K[0, 2], K[1, 2]
+    left, right = (cx + 0.5 + pad_px) / fx, (width - 0.5 - cx + pad_px) / fx
+    top, bottom = (cy + 0.5 + pad_px) / fy, (height - 0.5 - cy + pad_px) / fy
+    n = np.array([[1.0, 0.0, left], [-1.0, 0.0, right], [0.0, 1.0, top], [0.0, -1.0, bottom]])
+    return n / np.linalg.norm(n, axis=1, keepdims=True)
+
+
+def cull_outside_view(scene: mujoco.MjvScene, T_world_cam: np.ndarray, planes: np.ndarray, near_m: float,
+                      margin_m: float = 0.01) -> int:
+    """Drop from `scene` (after `update_scene`) every geom whose bounding sphere, grown by
+    margin_m [m], lies wholly outside the view (beyond one side plane, `view_planes`, or
+    before the near clip plane near_m [m]); returns how many. With shadows and reflections
+    off a geom outside the view adds no pixel, so the images do not change; the Panda's
+    visual meshes (about 135,000 triangles), mostly behind the wrist camera, are most of
+    the GL work of a frame. Planes and other unbounded geoms are kept."""
+    R, t = np.asarray(T_world_cam)[:3, :3], np.asarray(T_world_cam)[:3, 3]
+    n = 0
+    for i in range(scene.ngeom):
+        g = scene.geoms[i]
+        if int(g.type) not in _CULLABLE or not g.modelrbound > 0:
+            continue
+        p = (np.asarray(g.pos) - t) @ R
+        r = g.modelrbound + margin_m
+        if p[2] + r < near_m or np.any(planes @ p < -r):
+            g.type = mujoco.mjtGeom.mjGEOM_NONE
+            n += 1
+    return n

@@ -1,0 +1,38 @@
+"""The memoised colour mask equals `colour_mask` on rendered and random images."""
+import numpy as np
+import pytest
+
+from compass_manip.errors import CompassInputError
+from compass_manip.perception.colour import ColourMaskCache
+from compass_manip.perception.detector import DetectorConfig, colour_mask
+from compass_manip.robot.model import Q_HOME
+from compass_manip.sim.certify import certified_scene
+from compass_manip.sim.world import World
+from compass_manip.task import COLOURS
+
+
+def test_cached_mask_equals_colour_mask():
+    config = DetectorConfig()
+    cache = ColourMaskCache(config)
+    rng = np.random.default_rng(0)
+    w = World(certified_scene(4, 0, 0).scene)
+    lo, hi = w.model.jnt_range[:7, 0], w.model.jnt_range[:7, 1]
+    try:
+        images = [w.render(np.clip(Q_HOME + rng.normal(0.0, 0.3, 7), lo, hi)).rgb for _ in range(4)]
+    finally:
+        w.close()
+    images.append(rng.integers(0, 256, (60, 80, 3), dtype=np.uint8))
+    # pure and shaded named colours, greys of every brightness
+    ref = np.array([COLOURS[c] for c in COLOURS], dtype=np.float64)
+    shades = (ref[:, None, :] * np.linspace(0.05, 1.0, 40)[None, :, None] * 255).astype(np.uint8)
+    images.append(shades)
+    images.append(np.repeat(np.arange(256, dtype=np.uint8)[None, :, None], 3, axis=2))
+    hits = 0
+    for colour in COLOURS:
+        for img in images + images[:2]:  # the second pass reads the cache
+            want = colour_mask(img, colour, config)
+            assert np.array_equal(cache(img, colour), want)
+            hits += int(want.sum())
+    assert hits > 1000  # the images hold pixels of the colours
+    with pytest.raises(CompassInputError, match="colour"):
+        cache(images[0], "mauve")

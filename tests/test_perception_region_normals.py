@@ -1,0 +1,35 @@
+"""Normals of an image window equal the whole image's normals on that window."""
+import numpy as np
+
+from compass_manip.perception.target import backproject_image, region_normals, surface_normals
+
+
+def _points(rng):
+    H, W = 40, 50
+    v, u = np.mgrid[0:H, 0:W]
+    depth = 0.6 + 0.001 * u + 0.01 * np.sin(v / 5.0)
+    depth[10:20, 30:38] -= 0.2  # a box in front: depth jumps at its rim
+    depth[rng.random((H, W)) < 0.05] = np.nan  # missing measurements
+    depth[0, :] = np.inf
+    K = np.array([[300.0, 0, W / 2], [0, 300.0, H / 2], [0, 0, 1]])
+    T = np.eye(4)
+    T[:3, 3] = [0.1, -0.2, 0.5]
+    return backproject_image(depth, K, T)[0]
+
+
+def test_window_normals_equal_whole_image_normals():
+    rng = np.random.default_rng(0)
+    pts = _points(rng)
+    n_all, ok_all = surface_normals(pts)
+    H, W, _ = pts.shape
+    windows = [(slice(0, 5), slice(0, 7)), (slice(35, 40), slice(44, 50)), (slice(9, 21), slice(29, 39)),
+               (slice(0, H), slice(0, W)), (slice(20, 21), slice(3, 4)), (slice(1, 3), slice(48, 50))]
+    for _ in range(20):
+        r0, c0 = rng.integers(0, H - 1), rng.integers(0, W - 1)
+        windows.append((slice(r0, rng.integers(r0 + 1, H + 1)), slice(c0, rng.integers(c0 + 1, W + 1))))
+    for sl in windows:
+        n, ok = region_normals(pts, sl)
+        assert n.shape == n_all[sl].shape and ok.shape == ok_all[sl].shape
+        assert np.array_equal(ok, ok_all[sl])
+        assert np.array_equal(n, n_all[sl], equal_nan=True)
+    assert ok_all.sum() > 500  # the case has valid normals to compare
