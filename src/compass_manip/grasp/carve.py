@@ -16,7 +16,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from ..errors import CompassInputError
-from ..mapping.distance import DistanceField, unsafe_mask
+from ..mapping.distance import DistanceField, _clear_spheres, unsafe_mask
 from ..mapping.occupancy import OccupancyMap, VoxelState
 from .target import TargetModel
 
@@ -59,6 +59,43 @@ def grasp_unsafe(occ: OccupancyMap, target: TargetModel, clearance: float,
     if extra_safe is not None:
         carve |= np.asarray(extra_safe, dtype=bool)
     return unsafe_mask(occ, safe_voxels=carve, safe_spheres=safe_spheres)
+
+
+def clear_spheres_box(mask: np.ndarray, origin: np.ndarray, resolution: float, centres: np.ndarray,
+                      radii: np.ndarray) -> np.ndarray:
+    """Set False in `mask` (a box of voxels, low corner origin (3,) [m]) every voxel whose
+    centre lies inside a sphere (centres (S,3), radii (S,) [m]); spheres that cannot reach
+    the box are skipped before the kernel. Returns mask."""
+    c = np.ascontiguousarray(np.asarray(centres, dtype=np.float64).reshape(-1, 3))
+    r = np.ascontiguousarray(np.asarray(radii, dtype=np.float64).reshape(-1))
+    if len(c) != len(r) or not (np.all(np.isfinite(c)) and np.all(np.isfinite(r)) and np.all(r >= 0)):
+        raise CompassInputError("safe spheres must be finite centres (S, 3) [m] and radii (S,) >= 0 [m]")
+    hi = np.asarray(origin) + np.asarray(mask.shape) * resolution
+    near = np.all((c + r[:, None] >= origin) & (c - r[:, None] <= hi), axis=1)
+    _clear_spheres(mask, np.asarray(origin, dtype=np.float64), float(resolution), c[near], r[near])
+    return mask
+
+
+def grasp_unsafe_box(occ: OccupancyMap, target: TargetModel, clearance: float, a: np.ndarray, b: np.ndarray,
+                     safe_spheres: tuple[np.ndarray, np.ndarray] | None = None,
+                     extra_safe: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """`grasp_unsafe` restricted to the map-voxel index box [a, b) (3,) (only that box is
+    computed), with the robot's own space in it: (unsafe, robot_safe, carve) bool masks of
+    the box's shape; robot_safe holds the voxels the spheres or `extra_safe` mark safe."""
+    sl = tuple(slice(int(a[k]), int(b[k])) for k in range(3))
+    carve = target_carve(occ, target, clearance)[sl]
+    robot = np.zeros(carve.shape, dtype=bool)
+    if extra_safe is not None:
+        es = np.asarray(extra_safe, dtype=bool)
+        if es.shape != occ.shape:
+            raise CompassInputError(f"extra_safe has shape {es.shape}; the map's shape {occ.shape} is required")
+        robot |= es[sl]
+    if safe_spheres is not None:
+        free = np.ones(carve.shape, dtype=bool)
+        origin = occ.grid_min + np.asarray(a) * occ.resolution
+        robot |= ~clear_spheres_box(free, origin, occ.resolution, safe_spheres[0], safe_spheres[1])
+    unsafe = (occ.state[sl] != VoxelState.FREE) & ~carve & ~robot
+    return unsafe, robot, carve
 
 
 def grasp_field(occ: OccupancyMap, target: TargetModel, clearance: float,

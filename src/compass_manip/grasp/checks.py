@@ -18,16 +18,19 @@ through it on its way to the pre-grasp.
 from __future__ import annotations
 
 import math
+import time
 
 import numpy as np
 
+from ..errors import CompassInputError
 from ..geometry import make_T
 from ..mapping.distance import DistanceField
 from ..mapping.occupancy import OccupancyMap
 from ..motion.primitives import DistanceGrid, PrimitiveSet
 from ..motion.validity import ValidityChecker, ValidityConfig
 from ..robot.spheres import SphereModel
-from .carve import grasp_unsafe, local_fine_field
+from .carve import grasp_unsafe_box, target_carve
+from .field import checked_field, fine_map_range, fine_unsafe_labels
 from .target import TargetModel
 
 #: Links rigid with the TCP (checked on the fine field before any IK).
@@ -91,14 +94,37 @@ class GraspChecks:
 
     def __init__(self, occ: OccupancyMap, target: TargetModel, spheres: SphereModel, ik, config,
                  safe_spheres: tuple[np.ndarray, np.ndarray], extra_safe: np.ndarray | None = None,
-                 q_current: np.ndarray | None = None, box_margin: float = 0.25):
+                 q_current: np.ndarray | None = None, box_margin: float = 0.25,
+                 fine_map: OccupancyMap | None = None, inner_margin: float = 0.3):
         self.ik, self.target, self.config = ik, target, config
-        unsafe = grasp_unsafe(occ, target, config.clearance, safe_spheres, extra_safe)
+        self.times: dict[str, float] = {}
+        t = time.perf_counter()
         pts = target.points
         if q_current is not None:  # the box holds the robot as it stands and the target
             pts = np.vstack([pts, spheres.sphere_centers(np.asarray(q_current, dtype=np.float64)[None])[0]])
-        self.fine = local_fine_field(unsafe, occ, pts.min(0) - box_margin, pts.max(0) + box_margin,
-                                     config.field_upsample)
+        shape = np.asarray(occ.shape)
+        a = np.clip(occ.world_to_voxel((pts.min(0) - box_margin)[None])[0], 0, shape - 1)
+        b = np.clip(occ.world_to_voxel((pts.max(0) + box_margin)[None])[0], 0, shape - 1) + 1
+        unsafe, robot, _ = grasp_unsafe_box(occ, target, config.clearance, a, b, safe_spheres, extra_safe)
+        self.times["unsafe_s"] = time.perf_counter() - t
+        t = time.perf_counter()
+        u = config.field_upsample
+        fine_unsafe = None
+        if fine_map is not None:  # the fine local map's own labels in its box
+            fa, fb, fu = fine_map_range(occ, fine_map)
+            if fu != u:
+                raise CompassInputError(f"fine_map is {fu} times finer than the map; field_upsample {u} needs {u}")
+            lo, hi = np.maximum(fa, a), np.maximum(np.minimum(fb, b), np.maximum(fa, a))  # its part inside the box
+            sl = tuple(slice(int(lo[k] - a[k]), int(hi[k] - a[k])) for k in range(3))
+            fsl = tuple(slice(int(u * (lo[k] - fa[k])), int(u * (hi[k] - fa[k]))) for k in range(3))
+            fine_carve = target_carve(fine_map, target, config.clearance)[fsl]
+            fine_unsafe = fine_unsafe_labels(fine_map.state[fsl], unsafe[sl], robot[sl], fine_carve, u)
+            ia, ib = lo - a, hi - a
+        else:
+            ia = np.clip(occ.world_to_voxel((target.points.min(0) - inner_margin)[None])[0] - a, 0, b - a)
+            ib = np.clip(occ.world_to_voxel((target.points.max(0) + inner_margin)[None])[0] + 1 - a, 0, b - a)
+        self.fine = checked_field(unsafe, occ.grid_min + a * occ.resolution, occ.resolution, ia, ib, u, fine_unsafe)
+        self.times["field_s"] = time.perf_counter() - t
         grid = DistanceGrid.from_distance_field(self.fine)
         vc = ValidityConfig(voxel_extent=config.voxel_extent)
         self.full = ValidityChecker(spheres, grid=grid, config=vc)

@@ -126,7 +126,9 @@ class GraspSelection:
     approach_angle [rad] between z_g and n; ik_free: q_grasp is free in the map;
     gpq = s * 1[ik_free] * cos(approach_angle); n desired approach; n_candidates proposed;
     rejections: count per `Rejection`; time_s selection wall time [s] (plan_time_s of it
-    in the planner); failure: None on success."""
+    in the planner); failure: None on success; stage_times [s] per stage (unsafe: the map's
+    unsafe space in the checked box, field: the checked field, candidates, hand: the rigid
+    hand's checks, ik: IK and configuration checks, plan: the path)."""
 
     T_world_tcp: np.ndarray | None
     width: float
@@ -146,6 +148,7 @@ class GraspSelection:
     failure: GraspFailure | None
     pregrasp_distance: float = 0.0
     lift_height: float = 0.0
+    stage_times: dict = field(default_factory=dict)
 
     @property
     def success(self) -> bool:
@@ -207,7 +210,8 @@ def select_grasp(target: TargetModel, occ: OccupancyMap, task: Task, q_current: 
                  spheres: SphereModel, config: GraspSelectConfig | None = None,
                  rng: np.random.Generator | None = None, proposer: GraspProposer | None = None,
                  safe_spheres: tuple[np.ndarray, np.ndarray] | None = None,
-                 ik: PandaIK | None = None, extra_safe: np.ndarray | None = None) -> GraspSelection:
+                 ik: PandaIK | None = None, extra_safe: np.ndarray | None = None,
+                 fine_map: OccupancyMap | None = None) -> GraspSelection:
     """Select a grasp of `target` (Eq. 6) against the map `occ` from q_current (7,) [rad].
 
     spheres: the robot's sphere model with the fingers open (the approach width);
@@ -215,7 +219,11 @@ def select_grasp(target: TargetModel, occ: OccupancyMap, task: Task, q_current: 
     network); safe_spheres: extra robot volume known to be free, (centres (S,3), radii (S,))
     [m] (e.g. the arm's spheres along its past path); the robot's spheres at q_current are
     always marked safe, and so is the space around the base column (`base_volume`);
-    extra_safe: a voxel mask of the map's shape the caller takes as free. rng: explicit generator (required).
+    extra_safe: a voxel mask of the map's shape the caller takes as free (e.g. a
+    `robot_space.RobotSpaceMask` kept as the robot moved); fine_map: an occupancy map
+    `field_upsample` times finer than occ over a box around the target, integrated from the
+    same depth frames (`field.local_fine_map`): the checks near the target use its labels.
+    rng: explicit generator (required).
     """
     t0 = time.perf_counter()
     if rng is None:
@@ -231,13 +239,18 @@ def select_grasp(target: TargetModel, occ: OccupancyMap, task: Task, q_current: 
     if safe_spheres is not None:
         safe_c = np.vstack([safe_c, np.asarray(safe_spheres[0]).reshape(-1, 3)])
         safe_r = np.r_[safe_r, np.asarray(safe_spheres[1]).reshape(-1)]
-    checks = GraspChecks(occ, target, spheres, ik, config, (safe_c, safe_r), extra_safe, q_current)
+    checks = GraspChecks(occ, target, spheres, ik, config, (safe_c, safe_r), extra_safe, q_current,
+                         fine_map=fine_map)
     field_, checker = checks.fine, checks.full
+    stages = dict(checks.times)
+    t_stage = time.perf_counter()
     if config.constrained and "toward" in inspect.signature(proposer.propose).parameters:
         # sample approaches only inside the cone the constraint allows
         cands = proposer.propose(target, rng, toward=n, max_angle=config.max_approach_angle)
     else:
         cands = proposer.propose(target, rng)
+    stages["candidates_s"] = time.perf_counter() - t_stage
+    t_stage = time.perf_counter()
     rejections: Counter = Counter()
     plan_time = 0.0
 
@@ -245,16 +258,23 @@ def select_grasp(target: TargetModel, occ: OccupancyMap, task: Task, q_current: 
     lift_of = np.zeros(len(cands))
 
     def done(failure, idx=None, qs=None, path=None):
+        now = time.perf_counter()
+        if "hand_s" in stages:
+            stages["ik_s"] = max(0.0, now - t_stage - plan_time)
+        else:
+            stages["hand_s"], stages["ik_s"] = now - t_stage, 0.0
+        stages["plan_s"] = plan_time
         if failure is not None:
             return GraspSelection(None, 0.0, 0.0, None, None, None, None, float("nan"), False, 0.0, n, len(cands),
-                                  dict(rejections), time.perf_counter() - t0, plan_time, failure)
+                                  dict(rejections), time.perf_counter() - t0, plan_time, failure,
+                                  stage_times=dict(stages))
         T = cands.T_world_tcp[idx]
         ang = float(approach_angles(cands.take([idx]), n)[0])
         free = bool(checks.valid(np.asarray(qs[0])[None])[0])
         s = float(cands.score[idx])
         return GraspSelection(T, float(cands.width[idx]), s, *qs, path, ang, free, gpq(s, free, ang), n,
                               len(cands), dict(rejections), time.perf_counter() - t0, plan_time, None,
-                              float(pre_of[idx]), float(lift_of[idx]))
+                              float(pre_of[idx]), float(lift_of[idx]), dict(stages))
 
     if len(cands) == 0:
         return done(GraspFailure.NO_CANDIDATE)
@@ -329,6 +349,8 @@ def select_grasp(target: TargetModel, occ: OccupancyMap, task: Task, q_current: 
     order = within[np.lexsort((-z, np.round(ang[within] / math.radians(10.0)), -lift_of[within],
                                -cands.score[within]))]
     lift_clear = {h: checks.held_target_clear(h) for h in config.lift_heights}
+    stages["hand_s"] = time.perf_counter() - t_stage
+    t_stage = time.perf_counter()
     feasible: list[tuple[int, tuple]] = []
     n_free_ik = 0
 
