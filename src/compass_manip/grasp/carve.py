@@ -31,10 +31,12 @@ def target_carve(occ: OccupancyMap, target: TargetModel, clearance: float) -> np
     mask = np.zeros(occ.shape, dtype=bool)
     axes = [np.arange(lo[a], hi[a] + 1) for a in range(3)]
     ijk = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
-    centres = occ.voxel_to_world(ijk)
-    near = cKDTree(target.points).query(centres, k=1, distance_upper_bound=clearance)[0] <= clearance
-    near &= centres[:, 2] >= target.bottom_z
     st = occ.state[ijk[:, 0], ijk[:, 1], ijk[:, 2]]
+    keep = st != VoxelState.FREE  # only unknown or occupied voxels are ever carved
+    ijk, st = ijk[keep], st[keep]
+    centres = occ.voxel_to_world(ijk)
+    near = centres[:, 2] >= target.bottom_z
+    near[near] = cKDTree(target.points).query(centres[near], k=1, distance_upper_bound=clearance)[0] <= clearance
     has_point = np.zeros(occ.shape, dtype=bool)
     tv = occ.world_to_voxel(target.points)
     tv = tv[occ.in_grid(tv)]

@@ -21,6 +21,7 @@ import math
 import time
 
 import numpy as np
+from numba import njit, prange
 
 from ..errors import CompassInputError
 from ..geometry import make_T
@@ -52,19 +53,38 @@ def hand_clear(field: DistanceField, T_world_tcp: np.ndarray, local: tuple[np.nd
                voxel_extent: bool = True) -> np.ndarray:
     """(M,) True where every rigid hand sphere at each TCP pose (M,4,4) clears unsafe space,
     with the validity checker's conservative bound (nearest voxel centre, its offset and
-    half a voxel diagonal subtracted)."""
+    half a voxel diagonal subtracted). One numba pass; a pose stops at its first sphere
+    that does not clear."""
     C, r = local
-    W = np.einsum("mij,kj->mki", T_world_tcp[:, :3, :3], C) + T_world_tcp[:, None, :3, 3]
-    res = field.resolution
-    f = (W - field.grid_min) / res - 0.5
-    i = np.floor(f + 0.5).astype(np.int64)
-    shape = np.asarray(field.distances.shape)
-    inside = np.all((i >= 0) & (i < shape), axis=-1)
-    ic = np.clip(i, 0, shape - 1)
-    d = field.distances[ic[..., 0], ic[..., 1], ic[..., 2]]
-    half = 0.5 * math.sqrt(3.0) * res if voxel_extent else 0.0
-    clear = d - np.linalg.norm(f - i, axis=-1) * res - half - r
-    return np.all(inside & (clear >= 0.0), axis=1)
+    T = np.ascontiguousarray(np.asarray(T_world_tcp, dtype=np.float64).reshape(-1, 4, 4))
+    half = 0.5 * math.sqrt(3.0) * field.resolution if voxel_extent else 0.0
+    return _hand_clear(field.distances, np.asarray(field.grid_min, dtype=np.float64), float(field.resolution), T,
+                       np.ascontiguousarray(C, dtype=np.float64), np.ascontiguousarray(r, dtype=np.float64), half)
+
+
+@njit(cache=True, parallel=True)
+def _hand_clear(dist, grid_min, res, T, C, r, half):
+    nx, ny, nz = dist.shape
+    out = np.ones(T.shape[0], dtype=np.bool_)
+    for m in prange(T.shape[0]):
+        for k in range(C.shape[0]):
+            off = 0.0
+            idx = np.empty(3, np.int64)
+            ok = True
+            for a in range(3):
+                w = T[m, a, 0] * C[k, 0] + T[m, a, 1] * C[k, 1] + T[m, a, 2] * C[k, 2] + T[m, a, 3]
+                f = (w - grid_min[a]) / res - 0.5
+                i = int(math.floor(f + 0.5))
+                n = nx if a == 0 else (ny if a == 1 else nz)
+                if i < 0 or i >= n:
+                    ok = False
+                    break
+                idx[a] = i
+                off += (f - i) * (f - i)
+            if not ok or dist[idx[0], idx[1], idx[2]] - math.sqrt(off) * res - half - r[k] < 0.0:
+                out[m] = False
+                break
+    return out
 
 
 def offset_pose(T: np.ndarray, along_approach: float = 0.0, up: float = 0.0) -> np.ndarray:
@@ -95,7 +115,7 @@ class GraspChecks:
     def __init__(self, occ: OccupancyMap, target: TargetModel, spheres: SphereModel, ik, config,
                  safe_spheres: tuple[np.ndarray, np.ndarray], extra_safe: np.ndarray | None = None,
                  q_current: np.ndarray | None = None, box_margin: float = 0.25,
-                 fine_map: OccupancyMap | None = None, inner_margin: float = 0.3):
+                 fine_map: OccupancyMap | None = None, inner_margin: float = 0.2):
         self.ik, self.target, self.config = ik, target, config
         self.times: dict[str, float] = {}
         t = time.perf_counter()

@@ -71,23 +71,31 @@ def _compose(coarse, d_in, ia, u, res):
     h_fine = 0.5 * math.sqrt(3.0) * fres
     off = np.empty(u)
     for t in range(u):
-        off[t] = ((t + 0.5) / u - 0.5) * res
+        off[t] = (((t + 0.5) / u - 0.5) * res) ** 2
     out = np.empty((nx * u, ny * u, nz * u), np.float32)
     mx, my, mz = d_in.shape
-    for I in prange(nx * u):
-        for J in range(ny * u):
-            for K in range(nz * u):
-                ci, cj, ck = I // u, J // u, K // u
-                dc = math.sqrt(off[I % u] ** 2 + off[J % u] ** 2 + off[K % u] ** 2)
-                v = coarse[ci, cj, ck] - dc - h_map + h_fine
-                if v < 0.0:
-                    v = 0.0
-                li, lj, lk = I - ia[0], J - ia[1], K - ia[2]
-                if 0 <= li < mx and 0 <= lj < my and 0 <= lk < mz:
-                    bnd = min(li + 0.5, mx - li - 0.5, lj + 0.5, my - lj - 0.5, lk + 0.5, mz - lk - 0.5) * fres
-                    w = max(bnd + h_fine, v)
-                    v = min(d_in[li, lj, lk], w)
-                out[I, J, K] = v
+    for ci in prange(nx):
+        for cj in range(ny):
+            for ck in range(nz):
+                base = coarse[ci, cj, ck] - h_map + h_fine
+                near = (ci * u + u > ia[0] and ci * u < ia[0] + mx and cj * u + u > ia[1] and cj * u < ia[1] + my
+                        and ck * u + u > ia[2] and ck * u < ia[2] + mz)
+                for ti in range(u):
+                    I = ci * u + ti
+                    for tj in range(u):
+                        J = cj * u + tj
+                        for tk in range(u):
+                            K = ck * u + tk
+                            v = base - math.sqrt(off[ti] + off[tj] + off[tk])
+                            if v < 0.0:
+                                v = 0.0
+                            if near:
+                                li, lj, lk = I - ia[0], J - ia[1], K - ia[2]
+                                if 0 <= li < mx and 0 <= lj < my and 0 <= lk < mz:
+                                    bnd = min(li + 0.5, mx - li - 0.5, lj + 0.5, my - lj - 0.5,
+                                              lk + 0.5, mz - lk - 0.5) * fres
+                                    v = min(d_in[li, lj, lk], max(bnd + h_fine, v))
+                            out[I, J, K] = v
     return out
 
 

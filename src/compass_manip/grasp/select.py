@@ -39,7 +39,7 @@ from ..robot.model import Q_MAX, Q_MIN, check_q
 from ..robot.spheres import SphereModel
 from ..task import Task
 from .candidates import AntipodalProposer, CandidateConfig, GraspCandidates, GraspProposer
-from .carve import grasp_field
+from .carve import clear_spheres_box, grasp_field
 from .checks import GraspChecks, hand_clear, offset_pose, rigid_hand_spheres  # noqa: F401 (re-exported)
 from .target import TargetModel
 
@@ -194,7 +194,8 @@ def base_volume(spheres: SphereModel, q_ref: np.ndarray, n_q1: int = 36,
                 n_q2: int = 7) -> tuple[np.ndarray, np.ndarray]:
     """Spheres (centres (S,3) [m], radii (S,) [m]) of the links up to panda_link2 swept over
     joints 1 and 2: the robot's own space around its base column, which no camera on the
-    wrist sees and nothing else can occupy (it would collide at home already)."""
+    wrist sees and nothing else can occupy (it would collide at home already). Links 0-2
+    move with joints 1 and 2 only, so the volume does not depend on q_ref's other joints."""
     keep = np.isin(spheres.body_index, [spheres.link_names.index(k) for k in ("panda_link0", "panda_link1",
                                                                                "panda_link2")])
     q1 = np.linspace(Q_MIN[0], Q_MAX[0], n_q1)
@@ -204,6 +205,23 @@ def base_volume(spheres: SphereModel, q_ref: np.ndarray, n_q1: int = 36,
     Q[:, 1] = np.tile(q2, n_q1)
     C = spheres.sphere_centers(Q)[:, keep]
     return C.reshape(-1, 3), np.tile(spheres.radii[keep] + 0.02, len(Q))
+
+
+_BASE_MASKS: dict = {}
+
+
+def base_volume_mask(spheres: SphereModel, occ: OccupancyMap) -> np.ndarray:
+    """`base_volume` as a voxel mask of occ's grid, computed once per sphere model and grid
+    (a constant of the robot: it does not depend on the configuration)."""
+    key = (id(spheres), occ.shape, occ.resolution, occ.grid_min.tobytes())
+    if key not in _BASE_MASKS:
+        c, r = base_volume(spheres, 0.5 * (Q_MIN + Q_MAX))
+        out = np.ones(occ.shape, dtype=bool)
+        clear_spheres_box(out, occ.grid_min, occ.resolution, c, r)
+        if len(_BASE_MASKS) > 8:
+            _BASE_MASKS.clear()
+        _BASE_MASKS[key] = (spheres, ~out)  # the model is kept so its id stays unique
+    return _BASE_MASKS[key][1]
 
 
 def select_grasp(target: TargetModel, occ: OccupancyMap, task: Task, q_current: np.ndarray,
@@ -234,8 +252,11 @@ def select_grasp(target: TargetModel, occ: OccupancyMap, task: Task, q_current: 
     ik = ik or PandaIK(spheres.kinematics)
     n = desired_approach(target, task)
     cur = spheres.sphere_centers(q_current[None])[0]
-    base_c, base_r = base_volume(spheres, q_current)
-    safe_c, safe_r = np.vstack([cur, base_c]), np.r_[spheres.radii + config.robot_clearance, base_r]
+    safe_c, safe_r = cur, spheres.radii + config.robot_clearance
+    base = base_volume_mask(spheres, occ)
+    if extra_safe is not None and np.shape(extra_safe) != occ.shape:
+        raise CompassInputError(f"extra_safe has shape {np.shape(extra_safe)}; the map's shape {occ.shape} is required")
+    extra_safe = base if extra_safe is None else base | np.asarray(extra_safe, dtype=bool)
     if safe_spheres is not None:
         safe_c = np.vstack([safe_c, np.asarray(safe_spheres[0]).reshape(-1, 3)])
         safe_r = np.r_[safe_r, np.asarray(safe_spheres[1]).reshape(-1)]
@@ -282,7 +303,7 @@ def select_grasp(target: TargetModel, occ: OccupancyMap, task: Task, q_current: 
     if not config.constrained:
         # the paper's planner (MoveIt on the OctoMap) takes unknown space as free
         loose = grasp_field(occ, target, config.clearance, safe_spheres=(safe_c, safe_r),
-                            extra_safe=occ.state == VoxelState.UNKNOWN)
+                            extra_safe=(occ.state == VoxelState.UNKNOWN) | extra_safe)
         plan_checker = ValidityChecker(spheres, grid=DistanceGrid.from_distance_field(loose),
                                        config=ValidityConfig(voxel_extent=config.voxel_extent))
         order = rng.permutation(len(cands))

@@ -60,7 +60,7 @@ class GraspOnlyConfig:
     explore_path_frames: int = 2
     carve_margin: float = 0.02
     fine_map: bool = True
-    fine_margin: float = 0.3
+    fine_margin: float = 0.2
     target: TargetConfig = field(default_factory=TargetConfig)
     select: GraspSelectConfig = field(default_factory=GraspSelectConfig)
     execute: GraspExecConfig = field(default_factory=GraspExecConfig)
