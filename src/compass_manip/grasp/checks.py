@@ -31,9 +31,12 @@ from ..motion.primitives import DistanceGrid, PrimitiveSet
 from ..motion.validity import ValidityChecker, ValidityConfig
 from ..robot.spheres import SphereModel
 from .carve import grasp_unsafe_box, target_carve
-from .field import checked_field, fine_map_range, fine_unsafe_labels
+from .field import checked_field, fine_map_range, fine_unsafe_labels, upsample_mask
 from .target import TargetModel
 
+#: Links of the base column (their neighbourhood gets the exact fine field: at the floor
+#: the map-grid bound left their spheres with less than the plan's margin).
+BASE_LINKS = ("panda_link1", "panda_link2")
 #: Links rigid with the TCP (checked on the fine field before any IK).
 HAND_LINKS = ("panda_link7", "panda_link8", "hand/panda_hand", "hand/panda_leftfinger", "hand/panda_rightfinger")
 
@@ -104,6 +107,30 @@ def target_box(target: TargetModel, grow: float = 0.005) -> PrimitiveSet:
     return PrimitiveSet.from_lists(boxes=[(T, 0.5 * (hi - lo) + grow)])
 
 
+def exact_boxes(occ: OccupancyMap, a: np.ndarray, b: np.ndarray, target: TargetModel, spheres: SphereModel,
+                cur: np.ndarray | None, inner_margin: float, base_margin: float):
+    """Map-voxel index ranges (relative to the checked box [a, b)) where the checked field is
+    exact at the fine resolution: (ia, ib) the target's points grown by inner_margin [m]
+    together with the wrist and hand as they stand (cur: sphere centres at q_current, or
+    None), grown by base_margin [m] (the planned way to the pre-grasp runs between them),
+    and the base column's box (None without cur): near the floor the map-grid bound left
+    its spheres less than the plan's margin."""
+    lo, hi = target.points.min(0) - inner_margin, target.points.max(0) + inner_margin
+    base = None
+    if cur is not None:
+        wrist = _hand_mask(spheres) | (spheres.body_index == spheres.link_names.index("panda_link6"))
+        lo = np.minimum(lo, (cur[wrist] - spheres.radii[wrist, None]).min(0) - base_margin)
+        hi = np.maximum(hi, (cur[wrist] + spheres.radii[wrist, None]).max(0) + base_margin)
+        col = np.isin(spheres.body_index, [spheres.link_names.index(k) for k in BASE_LINKS])
+        blo = (cur[col] - spheres.radii[col, None]).min(0) - base_margin
+        bhi = (cur[col] + spheres.radii[col, None]).max(0) + base_margin
+        base = (np.clip(occ.world_to_voxel(blo[None])[0] - a, 0, b - a),
+                np.clip(occ.world_to_voxel(bhi[None])[0] + 1 - a, 0, b - a))
+    ia = np.clip(occ.world_to_voxel(lo[None])[0] - a, 0, b - a)
+    ib = np.clip(occ.world_to_voxel(hi[None])[0] + 1 - a, 0, b - a)
+    return ia, ib, base
+
+
 def _hand_mask(spheres: SphereModel) -> np.ndarray:
     return np.isin(spheres.body_index, [spheres.link_names.index(k) for k in HAND_LINKS if k in spheres.link_names])
 
@@ -115,7 +142,7 @@ class GraspChecks:
     def __init__(self, occ: OccupancyMap, target: TargetModel, spheres: SphereModel, ik, config,
                  safe_spheres: tuple[np.ndarray, np.ndarray], extra_safe: np.ndarray | None = None,
                  q_current: np.ndarray | None = None, box_margin: float = 0.25,
-                 fine_map: OccupancyMap | None = None, inner_margin: float = 0.2):
+                 fine_map: OccupancyMap | None = None, inner_margin: float = 0.2, base_margin: float = 0.05):
         self.ik, self.target, self.config = ik, target, config
         self.times: dict[str, float] = {}
         t = time.perf_counter()
@@ -129,27 +156,35 @@ class GraspChecks:
         self.times["unsafe_s"] = time.perf_counter() - t
         t = time.perf_counter()
         u = config.field_upsample
+        cur = None if q_current is None else spheres.sphere_centers(np.asarray(q_current, dtype=np.float64)[None])[0]
+        ia, ib, base_box = exact_boxes(occ, a, b, target, spheres, cur, inner_margin, base_margin)
         fine_unsafe = None
-        if fine_map is not None:  # the fine local map's own labels in its box
+        if fine_map is not None:  # the fine local map's own labels where it reaches into the inner box
             fa, fb, fu = fine_map_range(occ, fine_map)
             if fu != u:
                 raise CompassInputError(f"fine_map is {fu} times finer than the map; field_upsample {u} needs {u}")
-            lo, hi = np.maximum(fa, a), np.maximum(np.minimum(fb, b), np.maximum(fa, a))  # its part inside the box
-            sl = tuple(slice(int(lo[k] - a[k]), int(hi[k] - a[k])) for k in range(3))
-            fsl = tuple(slice(int(u * (lo[k] - fa[k])), int(u * (hi[k] - fa[k]))) for k in range(3))
-            fine_carve = target_carve(fine_map, target, config.clearance)[fsl]
-            fine_unsafe = fine_unsafe_labels(fine_map.state[fsl], unsafe[sl], robot[sl], fine_carve, u)
-            ia, ib = lo - a, hi - a
-        else:
-            ia = np.clip(occ.world_to_voxel((target.points.min(0) - inner_margin)[None])[0] - a, 0, b - a)
-            ib = np.clip(occ.world_to_voxel((target.points.max(0) + inner_margin)[None])[0] + 1 - a, 0, b - a)
-        self.fine = checked_field(unsafe, occ.grid_min + a * occ.resolution, occ.resolution, ia, ib, u, fine_unsafe)
+            fine_unsafe = upsample_mask(unsafe[ia[0]:ib[0], ia[1]:ib[1], ia[2]:ib[2]], u)
+            lo, hi = np.maximum(fa, a + ia), np.minimum(fb, a + ib)
+            if np.all(hi > lo):
+                sl = tuple(slice(int(lo[k] - a[k]), int(hi[k] - a[k])) for k in range(3))
+                fsl = tuple(slice(int(u * (lo[k] - fa[k])), int(u * (hi[k] - fa[k]))) for k in range(3))
+                dst = tuple(slice(int(u * (lo[k] - a[k] - ia[k])), int(u * (hi[k] - a[k] - ia[k]))) for k in range(3))
+                fine_carve = target_carve(fine_map, target, config.clearance)[fsl]
+                fine_unsafe[dst] = fine_unsafe_labels(fine_map.state[fsl], unsafe[sl], robot[sl], fine_carve, u)
+        own = None if cur is None else (cur, spheres.radii + config.robot_clearance)
+        boxes = () if base_box is None else (base_box,)
+        self.fine = checked_field(unsafe, occ.grid_min + a * occ.resolution, occ.resolution, ia, ib, u, fine_unsafe,
+                                  own, boxes)
         self.times["field_s"] = time.perf_counter() - t
         grid = DistanceGrid.from_distance_field(self.fine)
         vc = ValidityConfig(voxel_extent=config.voxel_extent)
         self.full = ValidityChecker(spheres, grid=grid, config=vc)
+        margin = config.plan_margin
+        if q_current is not None:  # the robot stands at q_current: the path keeps the margin, or what the start has
+            margin = float(min(margin, max(0.0, self.full.clearance(np.asarray(q_current, dtype=np.float64)) - 1e-4)))
+        self.plan_margin = margin
         self.plan = ValidityChecker(spheres, grid=grid, obstacles=target_box(target),
-                                    config=ValidityConfig(voxel_extent=config.voxel_extent, margin=config.plan_margin))
+                                    config=ValidityConfig(voxel_extent=config.voxel_extent, margin=margin))
 
     def valid(self, Q: np.ndarray) -> np.ndarray:
         """(N,) configurations free of the map and of self-collision."""

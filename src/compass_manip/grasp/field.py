@@ -37,30 +37,85 @@ def upsample_mask(mask: np.ndarray, u: int) -> np.ndarray:
 
 
 def checked_field(unsafe: np.ndarray, origin: np.ndarray, resolution: float, inner_a: np.ndarray,
-                  inner_b: np.ndarray, upsample: int, fine_unsafe: np.ndarray | None = None) -> DistanceField:
+                  inner_b: np.ndarray, upsample: int, fine_unsafe: np.ndarray | None = None,
+                  safe_spheres: tuple[np.ndarray, np.ndarray] | None = None,
+                  more_boxes: tuple = ()) -> DistanceField:
     """The composite field (module doc) on a grid `upsample` times finer than `unsafe`.
 
     unsafe (nx, ny, nz) bool on the map grid, its low corner at origin (3,) [m], voxel edge
     resolution [m]; inner_a / inner_b (3,) map-voxel index range [a, b) of the inner box;
-    fine_unsafe: the inner box's fine unsafe voxels (default: `unsafe` there, split)."""
+    fine_unsafe: the inner box's fine unsafe voxels (default: `unsafe` there, split), which
+    must lie in map voxels outside safe_spheres; more_boxes: further (a, b) index ranges
+    computed exactly from `unsafe` split (each overlays the field built so far: its
+    outside is bounded by that field); safe_spheres (centres (S,3), radii (S,) [m]):
+    spheres whose map voxels were all made safe (the robot as it stands): every unsafe
+    map-voxel centre is farther than R from such a sphere's centre, so no fine unsafe
+    centre is nearer than R - |c - c_s| - (h_map - h_fine) to a fine centre c; that bound
+    raises the field where it is larger."""
     if isinstance(upsample, bool) or not isinstance(upsample, int) or not 1 <= upsample <= 4:
         raise CompassInputError(f"upsample {upsample!r} is not allowed; use an integer 1..4")
     shape = np.asarray(unsafe.shape)
-    a = np.clip(np.asarray(inner_a, dtype=np.int64), 0, shape)
-    b = np.clip(np.asarray(inner_b, dtype=np.int64), a, shape)
-    if fine_unsafe is None:
-        fine_unsafe = upsample_mask(unsafe[a[0]:b[0], a[1]:b[1], a[2]:b[2]], upsample)
-    if fine_unsafe.shape != tuple(upsample * (b - a)):
-        raise CompassInputError(f"fine_unsafe has shape {fine_unsafe.shape}; the inner box needs "
-                                f"{tuple(int(x) for x in upsample * (b - a))}")
     coarse = DistanceField.from_unsafe(unsafe, origin, resolution).distances
     fine_res = resolution / upsample
-    if fine_unsafe.size and fine_unsafe.any():
-        d_in = _distances(np.ascontiguousarray(fine_unsafe), fine_res)
-    else:
-        d_in = np.full(fine_unsafe.shape, np.inf, np.float32)
-    out = _compose(coarse, d_in, a * upsample, upsample, float(resolution))
+    out = None
+    for n, (a, b) in enumerate([(inner_a, inner_b)] + list(more_boxes)):
+        a = np.clip(np.asarray(a, dtype=np.int64), 0, shape)
+        b = np.clip(np.asarray(b, dtype=np.int64), a, shape)
+        fu = fine_unsafe if n == 0 else None
+        if fu is None:
+            fu = upsample_mask(unsafe[a[0]:b[0], a[1]:b[1], a[2]:b[2]], upsample)
+        if fu.shape != tuple(upsample * (b - a)):
+            raise CompassInputError(f"fine_unsafe has shape {fu.shape}; the inner box needs "
+                                    f"{tuple(int(x) for x in upsample * (b - a))}")
+        if fu.size and fu.any():
+            d_in = _distances(np.ascontiguousarray(fu), fine_res)
+        else:
+            d_in = np.full(fu.shape, np.inf, np.float32)
+        if out is None:
+            out = _compose(coarse, d_in, a * upsample, upsample, float(resolution))
+        else:
+            _overlay(out, d_in, a * upsample, fine_res)
+    if safe_spheres is not None:
+        h = 0.5 * math.sqrt(3.0) * (resolution - fine_res)
+        _raise_in_spheres(out, np.asarray(origin, dtype=np.float64), fine_res,
+                          np.ascontiguousarray(np.asarray(safe_spheres[0], dtype=np.float64).reshape(-1, 3)),
+                          np.ascontiguousarray(np.asarray(safe_spheres[1], dtype=np.float64).reshape(-1)), h)
     return DistanceField(out, origin, fine_res)
+
+
+@njit(cache=True, parallel=True)
+def _overlay(out, d_in, ia, fres):
+    """out <- min(d_in, max(b + h_fine, out)) inside the box at fine index ia (module doc)."""
+    h_fine = 0.5 * math.sqrt(3.0) * fres
+    mx, my, mz = d_in.shape
+    for li in prange(mx):
+        for lj in range(my):
+            for lk in range(mz):
+                bnd = min(li + 0.5, mx - li - 0.5, lj + 0.5, my - lj - 0.5, lk + 0.5, mz - lk - 0.5) * fres
+                I, J, K = li + ia[0], lj + ia[1], lk + ia[2]
+                out[I, J, K] = min(d_in[li, lj, lk], max(bnd + h_fine, out[I, J, K]))
+
+
+@njit(cache=True)
+def _raise_in_spheres(out, origin, res, centres, radii, h):
+    nx, ny, nz = out.shape
+    for s in range(centres.shape[0]):
+        R = radii[s]
+        lo0 = max(int(math.floor((centres[s, 0] - R - origin[0]) / res)), 0)
+        lo1 = max(int(math.floor((centres[s, 1] - R - origin[1]) / res)), 0)
+        lo2 = max(int(math.floor((centres[s, 2] - R - origin[2]) / res)), 0)
+        hi0 = min(int(math.ceil((centres[s, 0] + R - origin[0]) / res)), nx - 1)
+        hi1 = min(int(math.ceil((centres[s, 1] + R - origin[1]) / res)), ny - 1)
+        hi2 = min(int(math.ceil((centres[s, 2] + R - origin[2]) / res)), nz - 1)
+        for i in range(lo0, hi0 + 1):
+            dx = origin[0] + (i + 0.5) * res - centres[s, 0]
+            for j in range(lo1, hi1 + 1):
+                dy = origin[1] + (j + 0.5) * res - centres[s, 1]
+                for k in range(lo2, hi2 + 1):
+                    dz = origin[2] + (k + 0.5) * res - centres[s, 2]
+                    v = R - math.sqrt(dx * dx + dy * dy + dz * dz) - h
+                    if v > out[i, j, k]:
+                        out[i, j, k] = v
 
 
 @njit(cache=True, parallel=True)
