@@ -1,19 +1,23 @@
 """The checks of one grasp selection against the map, on a finer grid.
 
 The unsafe space (unknown or occupied, less the target's carve and the robot's own space,
-`carve.grasp_unsafe`) becomes a distance field `field_upsample` times finer than the map in
-a box holding the robot as it stands and the target (`carve.local_fine_field`; outside the
-box is unsafe). Every unsafe voxel is split into unsafe sub-voxels, so the unsafe space is
-the same cubes; a checker's conservative bound (distance at the nearest grid centre, minus
-the offset to it and half a grid diagonal) then loses at most one fine voxel diagonal
-(8.7 mm at 5 mm) instead of one map voxel diagonal (17 mm at 1 cm), which is the clearance
-the certified scenes leave around the hand. The hand (every link rigid with the TCP) is
-checked on it at the grasp, along the approach and along the lift (`hand_clear`) before
-any IK; configurations and straight edges use the whole robot on it, and the planned path
-to the pre-grasp (`plan`) keeps `plan_margin` more (a free-space ray grazing a board's edge
-can mark a voxel free that the board still reaches into) and has the target itself, carved
-from the map for the fingers, back as an obstacle (`target_box`): the hand must not sweep
-through it on its way to the pre-grasp.
+`carve.grasp_unsafe_box`, computed only in a box holding the robot as it stands and the
+target; outside the box is unsafe) becomes one distance field `field_upsample` times finer
+than the map (`field.checked_field`). It is exact at the fine resolution where precision
+pays (`exact_boxes`: the target and the wrist as it stands, between which the path to the
+pre-grasp runs, and the base column) and elsewhere a sound bound from the map-grid
+transform. In the exact part every unsafe map voxel is split into unsafe fine cells, or,
+with a fine local occupancy map integrated from the same depth frames, the fine map's own
+labels decide (`field.fine_unsafe_labels`). A checker's conservative bound (distance at the
+nearest grid centre, minus the offset to it and half a grid diagonal) then loses at most
+one fine voxel diagonal (8.7 mm at 5 mm) near the target. The hand (every link rigid with
+the TCP) is checked on it at the grasp, along the approach and along the lift
+(`hand_clear`, numba) before any IK; configurations and straight edges use the whole robot
+on it, and the planned path to the pre-grasp (`plan`) keeps `plan_margin` more (a
+free-space ray grazing a board's edge can mark a voxel free that the board still reaches
+into; at most the clearance the robot has where it stands, so the start is valid) and has
+the target itself, carved from the map for the fingers, back as an obstacle (`target_box`):
+the hand must not sweep through it on its way to the pre-grasp.
 """
 from __future__ import annotations
 

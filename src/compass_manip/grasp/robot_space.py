@@ -8,6 +8,8 @@ is executed (`add`), so the selection only reads the mask (`select_grasp(extra_s
 The mask is exactly the one-shot rasterisation of all the configurations' spheres
 (`mapping.distance.unsafe_mask` with those spheres; tested); configurations seen before
 are skipped (bit-identical duplicates only, e.g. the home posture every way starts from).
+The space around the base column (`base_volume`) is the robot's too; it does not depend on
+the configuration, so its mask is computed once per grid (`base_volume_mask`).
 """
 from __future__ import annotations
 
@@ -18,7 +20,9 @@ import numpy as np
 from ..errors import CompassInputError
 from ..mapping.distance import _clear_spheres
 from ..mapping.occupancy import OccupancyMap
+from ..robot.model import Q_MAX, Q_MIN
 from ..robot.spheres import SphereModel
+from .carve import clear_spheres_box
 
 
 class RobotSpaceMask:
@@ -60,3 +64,37 @@ class RobotSpaceMask:
             _clear_spheres(self._outside, self.grid_min, self.resolution, c, r)
             self.n_configs += len(Qn)
         self.time_s += time.perf_counter() - t
+
+
+def base_volume(spheres: SphereModel, q_ref: np.ndarray, n_q1: int = 36,
+                n_q2: int = 7) -> tuple[np.ndarray, np.ndarray]:
+    """Spheres (centres (S,3) [m], radii (S,) [m]) of the links up to panda_link2 swept over
+    joints 1 and 2: the robot's own space around its base column, which no camera on the
+    wrist sees and nothing else can occupy (it would collide at home already). Links 0-2
+    move with joints 1 and 2 only, so the volume does not depend on q_ref's other joints."""
+    keep = np.isin(spheres.body_index, [spheres.link_names.index(k) for k in ("panda_link0", "panda_link1",
+                                                                               "panda_link2")])
+    q1 = np.linspace(Q_MIN[0], Q_MAX[0], n_q1)
+    q2 = np.linspace(-1.2, 1.2, n_q2)
+    Q = np.repeat(np.asarray(q_ref, dtype=np.float64)[None], n_q1 * n_q2, axis=0)
+    Q[:, 0] = np.repeat(q1, n_q2)
+    Q[:, 1] = np.tile(q2, n_q1)
+    C = spheres.sphere_centers(Q)[:, keep]
+    return C.reshape(-1, 3), np.tile(spheres.radii[keep] + 0.02, len(Q))
+
+
+_BASE_MASKS: dict = {}
+
+
+def base_volume_mask(spheres: SphereModel, occ: OccupancyMap) -> np.ndarray:
+    """`base_volume` as a voxel mask of occ's grid, computed once per sphere model and grid
+    (a constant of the robot: it does not depend on the configuration)."""
+    key = (id(spheres), occ.shape, occ.resolution, occ.grid_min.tobytes())
+    if key not in _BASE_MASKS:
+        c, r = base_volume(spheres, 0.5 * (Q_MIN + Q_MAX))
+        out = np.ones(occ.shape, dtype=bool)
+        clear_spheres_box(out, occ.grid_min, occ.resolution, c, r)
+        if len(_BASE_MASKS) > 8:
+            _BASE_MASKS.clear()
+        _BASE_MASKS[key] = (spheres, ~out)  # the model is kept so its id stays unique
+    return _BASE_MASKS[key][1]

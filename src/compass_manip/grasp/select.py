@@ -35,12 +35,13 @@ from ..motion.planner import PlannerConfig, plan
 from ..motion.primitives import DistanceGrid
 from ..motion.validity import ValidityChecker, ValidityConfig
 from ..robot.ik import PandaIK
-from ..robot.model import Q_MAX, Q_MIN, check_q
+from ..robot.model import check_q
 from ..robot.spheres import SphereModel
 from ..task import Task
 from .candidates import AntipodalProposer, CandidateConfig, GraspCandidates, GraspProposer
-from .carve import clear_spheres_box, grasp_field
+from .carve import grasp_field
 from .checks import GraspChecks, hand_clear, offset_pose, rigid_hand_spheres  # noqa: F401 (re-exported)
+from .robot_space import base_volume, base_volume_mask  # noqa: F401 (re-exported)
 from .target import TargetModel
 
 
@@ -188,40 +189,6 @@ def approach_angles(cands: GraspCandidates, n: np.ndarray) -> np.ndarray:
 def gpq(score: float, ik_free: bool, angle: float) -> float:
     """The paper's Grasp Pose Quality s * 1[IK(e) in Q_free] * cos(angle(z_g, n))."""
     return float(score) * float(bool(ik_free)) * math.cos(angle)
-
-
-def base_volume(spheres: SphereModel, q_ref: np.ndarray, n_q1: int = 36,
-                n_q2: int = 7) -> tuple[np.ndarray, np.ndarray]:
-    """Spheres (centres (S,3) [m], radii (S,) [m]) of the links up to panda_link2 swept over
-    joints 1 and 2: the robot's own space around its base column, which no camera on the
-    wrist sees and nothing else can occupy (it would collide at home already). Links 0-2
-    move with joints 1 and 2 only, so the volume does not depend on q_ref's other joints."""
-    keep = np.isin(spheres.body_index, [spheres.link_names.index(k) for k in ("panda_link0", "panda_link1",
-                                                                               "panda_link2")])
-    q1 = np.linspace(Q_MIN[0], Q_MAX[0], n_q1)
-    q2 = np.linspace(-1.2, 1.2, n_q2)
-    Q = np.repeat(np.asarray(q_ref, dtype=np.float64)[None], n_q1 * n_q2, axis=0)
-    Q[:, 0] = np.repeat(q1, n_q2)
-    Q[:, 1] = np.tile(q2, n_q1)
-    C = spheres.sphere_centers(Q)[:, keep]
-    return C.reshape(-1, 3), np.tile(spheres.radii[keep] + 0.02, len(Q))
-
-
-_BASE_MASKS: dict = {}
-
-
-def base_volume_mask(spheres: SphereModel, occ: OccupancyMap) -> np.ndarray:
-    """`base_volume` as a voxel mask of occ's grid, computed once per sphere model and grid
-    (a constant of the robot: it does not depend on the configuration)."""
-    key = (id(spheres), occ.shape, occ.resolution, occ.grid_min.tobytes())
-    if key not in _BASE_MASKS:
-        c, r = base_volume(spheres, 0.5 * (Q_MIN + Q_MAX))
-        out = np.ones(occ.shape, dtype=bool)
-        clear_spheres_box(out, occ.grid_min, occ.resolution, c, r)
-        if len(_BASE_MASKS) > 8:
-            _BASE_MASKS.clear()
-        _BASE_MASKS[key] = (spheres, ~out)  # the model is kept so its id stays unique
-    return _BASE_MASKS[key][1]
 
 
 def select_grasp(target: TargetModel, occ: OccupancyMap, task: Task, q_current: np.ndarray,
