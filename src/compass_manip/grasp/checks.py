@@ -146,7 +146,8 @@ class GraspChecks:
     def __init__(self, occ: OccupancyMap, target: TargetModel, spheres: SphereModel, ik, config,
                  safe_spheres: tuple[np.ndarray, np.ndarray], extra_safe: np.ndarray | None = None,
                  q_current: np.ndarray | None = None, box_margin: float = 0.25,
-                 fine_map: OccupancyMap | None = None, inner_margin: float = 0.2, base_margin: float = 0.05):
+                 fine_map: OccupancyMap | None = None, inner_margin: float = 0.2, base_margin: float = 0.05,
+                 exact_everywhere: bool = False):
         self.ik, self.target, self.config = ik, target, config
         self.times: dict[str, float] = {}
         t = time.perf_counter()
@@ -162,6 +163,8 @@ class GraspChecks:
         u = config.field_upsample
         cur = None if q_current is None else spheres.sphere_centers(np.asarray(q_current, dtype=np.float64)[None])[0]
         ia, ib, base_box = exact_boxes(occ, a, b, target, spheres, cur, inner_margin, base_margin)
+        if exact_everywhere:  # the whole box exact (slower)
+            ia, ib, base_box = np.zeros(3, np.int64), b - a, None
         fine_unsafe = None
         if fine_map is not None:  # the fine local map's own labels where it reaches into the inner box
             fa, fb, fu = fine_map_range(occ, fine_map)

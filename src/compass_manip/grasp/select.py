@@ -84,7 +84,10 @@ class GraspSelectConfig:
     approach); voxel_extent: unsafe voxels are cubes (the checker subtracts half a voxel
     diagonal) rather than points at their centres; field_upsample: the checked field's grid
     near the target is this many times finer than the map's (`checks.GraspChecks`); plan_margin
-    [m] kept by the planned path to the pre-grasp; planner: settings of that path."""
+    [m] kept by the planned path to the pre-grasp; exact_fallback: when no candidate passes
+    the arm's checks and the path on the field that is exact only near the target, the wrist
+    and the base, run those checks again on a field exact in the whole box (the selection
+    then equals one made on that field throughout); planner: settings of that path."""
 
     constrained: bool = True
     max_approach_angle: float = math.radians(50.0)
@@ -100,6 +103,7 @@ class GraspSelectConfig:
     voxel_extent: bool = True
     field_upsample: int = 2
     plan_margin: float = 0.005
+    exact_fallback: bool = True
     candidates: CandidateConfig = field(default_factory=CandidateConfig)
     planner: PlannerConfig = field(default_factory=lambda: PlannerConfig(time_budget=0.5))
 
@@ -240,6 +244,7 @@ def select_grasp(target: TargetModel, occ: OccupancyMap, task: Task, q_current: 
     stages["candidates_s"] = time.perf_counter() - t_stage
     t_stage = time.perf_counter()
     rejections: Counter = Counter()
+    ik_rej: Counter = Counter()  # the IK stage's rejections (of the last field it ran on)
     plan_time = 0.0
 
     pre_of = np.zeros(len(cands))
@@ -248,20 +253,20 @@ def select_grasp(target: TargetModel, occ: OccupancyMap, task: Task, q_current: 
     def done(failure, idx=None, qs=None, path=None):
         now = time.perf_counter()
         if "hand_s" in stages:
-            stages["ik_s"] = max(0.0, now - t_stage - plan_time)
+            stages["ik_s"] = max(0.0, now - t_stage - plan_time - stages.get("exact_field_s", 0.0))
         else:
             stages["hand_s"], stages["ik_s"] = now - t_stage, 0.0
         stages["plan_s"] = plan_time
         if failure is not None:
             return GraspSelection(None, 0.0, 0.0, None, None, None, None, float("nan"), False, 0.0, n, len(cands),
-                                  dict(rejections), time.perf_counter() - t0, plan_time, failure,
+                                  {**rejections, **ik_rej}, time.perf_counter() - t0, plan_time, failure,
                                   stage_times=dict(stages))
         T = cands.T_world_tcp[idx]
         ang = float(approach_angles(cands.take([idx]), n)[0])
         free = bool(checks.valid(np.asarray(qs[0])[None])[0])
         s = float(cands.score[idx])
         return GraspSelection(T, float(cands.width[idx]), s, *qs, path, ang, free, gpq(s, free, ang), n,
-                              len(cands), dict(rejections), time.perf_counter() - t0, plan_time, None,
+                              len(cands), {**rejections, **ik_rej}, time.perf_counter() - t0, plan_time, None,
                               float(pre_of[idx]), float(lift_of[idx]), dict(stages))
 
     if len(cands) == 0:
@@ -336,47 +341,66 @@ def select_grasp(target: TargetModel, occ: OccupancyMap, task: Task, q_current: 
     z = cands.T_world_tcp[within, 2, 3]
     order = within[np.lexsort((-z, np.round(ang[within] / math.radians(10.0)), -lift_of[within],
                                -cands.score[within]))]
-    lift_clear = {h: checks.held_target_clear(h) for h in config.lift_heights}
     stages["hand_s"] = time.perf_counter() - t_stage
     t_stage = time.perf_counter()
-    feasible: list[tuple[int, tuple]] = []
-    n_free_ik = 0
 
-    def try_plan(group):
+    def search(chk):
+        """IK, configuration and path checks of the ordered candidates on one checked field;
+        (the selection or None, n_free_ik); rejections go to ik_rej."""
         nonlocal plan_time
-        goals = np.array([qs[1] for _, qs in group])
-        res = plan(q_current, goals, checks.plan, config.planner, rng)
-        plan_time += res.plan_time_s
-        if res.success:
-            idx, qs = group[res.goal_index]
-            return done(None, idx, qs, res.path)
-        rejections[Rejection.NO_PATH] += len(group)
-        return None
+        lift_clear = {h: chk.held_target_clear(h) for h in config.lift_heights}
+        feasible: list[tuple[int, tuple]] = []
+        n_free_ik = 0
 
-    for idx in order[: config.max_checked]:
-        if feasible and cands.score[idx] < cands.score[feasible[0][0]] and len(feasible) >= 1:
-            out = try_plan(feasible)  # the best score level is complete: plan to it first
-            if out is not None:
-                return out
-            feasible = []
-        qs, why = checks.check(cands.T_world_tcp[idx], q_current, pre_of[idx], lift_of[idx], lift_clear[lift_of[idx]])
-        why = None if why is None else Rejection[why]
-        if why is not None:
-            rejections[why] += 1
-            n_free_ik += why not in (Rejection.NO_IK, Rejection.IK_IN_COLLISION)
-            continue
-        n_free_ik += 1
-        feasible.append((int(idx), qs))
-        if len(feasible) >= config.max_feasible:
+        def try_plan(group):
+            nonlocal plan_time
+            goals = np.array([qs[1] for _, qs in group])
+            res = plan(q_current, goals, chk.plan, config.planner, rng)
+            plan_time += res.plan_time_s
+            if res.success:
+                idx, qs = group[res.goal_index]
+                return done(None, idx, qs, res.path)
+            ik_rej[Rejection.NO_PATH] += len(group)
+            return None
+
+        for idx in order[: config.max_checked]:
+            if feasible and cands.score[idx] < cands.score[feasible[0][0]] and len(feasible) >= 1:
+                out = try_plan(feasible)  # the best score level is complete: plan to it first
+                if out is not None:
+                    return out, n_free_ik
+                feasible = []
+            qs, why = chk.check(cands.T_world_tcp[idx], q_current, pre_of[idx], lift_of[idx], lift_clear[lift_of[idx]])
+            why = None if why is None else Rejection[why]
+            if why is not None:
+                ik_rej[why] += 1
+                n_free_ik += why not in (Rejection.NO_IK, Rejection.IK_IN_COLLISION)
+                continue
+            n_free_ik += 1
+            feasible.append((int(idx), qs))
+            if len(feasible) >= config.max_feasible:
+                out = try_plan(feasible)
+                if out is not None:
+                    return out, n_free_ik
+                feasible = []
+        if feasible:
             out = try_plan(feasible)
             if out is not None:
-                return out
-            feasible = []
-    if feasible:
-        out = try_plan(feasible)
-        if out is not None:
-            return out
-    if rejections[Rejection.NO_PATH]:
+                return out, n_free_ik
+        return None, n_free_ik
+
+    out, n_free_ik = search(checks)
+    if out is None and config.exact_fallback:
+        # the field is exact only near the target, the wrist and the base: before giving up,
+        # the arm's checks and the path again on a field exact everywhere in the box
+        t_ex = time.perf_counter()
+        checks = GraspChecks(occ, target, spheres, ik, config, (safe_c, safe_r), extra_safe, q_current,
+                             fine_map=fine_map, exact_everywhere=True)
+        stages["exact_field_s"] = time.perf_counter() - t_ex
+        ik_rej.clear()
+        out, n_free_ik = search(checks)
+    if out is not None:
+        return out
+    if ik_rej[Rejection.NO_PATH]:
         return done(GraspFailure.NO_PATH)
     if n_free_ik:
         return done(GraspFailure.NO_APPROACH_PATH)
