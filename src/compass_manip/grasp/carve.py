@@ -21,8 +21,10 @@ from ..mapping.occupancy import OccupancyMap, VoxelState
 from .target import TargetModel
 
 
-def target_carve(occ: OccupancyMap, target: TargetModel, clearance: float) -> np.ndarray:
-    """(nx, ny, nz) bool mask of voxels to treat as safe around the target (module doc)."""
+def target_carve(occ: OccupancyMap, target: TargetModel, clearance: float, own_radius: float = 0.0) -> np.ndarray:
+    """(nx, ny, nz) bool mask of voxels to treat as safe around the target (module doc).
+    own_radius [m]: an occupied voxel whose centre lies within it of a target point is the
+    target's too (on a grid finer than the points' spacing a surface voxel may hold none)."""
     res = occ.resolution
     shape = np.asarray(occ.shape)
     lo = occ.world_to_voxel((target.points.min(0) - clearance - res)[None])[0]
@@ -45,6 +47,8 @@ def target_carve(occ: OccupancyMap, target: TargetModel, clearance: float) -> np
     mid = 0.5 * (proj.min(0) + proj.max(0))
     inside = np.all(np.abs(centres @ target.axes - mid) <= 0.5 * (proj.max(0) - proj.min(0)), axis=1)
     own = has_point[ijk[:, 0], ijk[:, 1], ijk[:, 2]] | inside
+    if own_radius > 0.0 and len(centres):
+        own |= cKDTree(target.points).query(centres, k=1, distance_upper_bound=own_radius)[0] <= own_radius
     ok = near & ((st == VoxelState.UNKNOWN) | ((st == VoxelState.OCCUPIED) & own))
     sel = ijk[ok]
     mask[sel[:, 0], sel[:, 1], sel[:, 2]] = True

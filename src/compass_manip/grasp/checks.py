@@ -176,7 +176,8 @@ class GraspChecks:
                 sl = tuple(slice(int(lo[k] - a[k]), int(hi[k] - a[k])) for k in range(3))
                 fsl = tuple(slice(int(u * (lo[k] - fa[k])), int(u * (hi[k] - fa[k]))) for k in range(3))
                 dst = tuple(slice(int(u * (lo[k] - a[k] - ia[k])), int(u * (hi[k] - a[k] - ia[k]))) for k in range(3))
-                fine_carve = target_carve(fine_map, target, config.clearance)[fsl]
+                fine_carve = target_carve(fine_map, target, config.clearance,  # a fine voxel diagonal: as a map voxel
+                                          math.sqrt(3.0) * fine_map.resolution)[fsl]  # holding a point reaches
                 fine_unsafe[dst] = fine_unsafe_labels(fine_map.state[fsl], unsafe[sl], robot[sl], fine_carve, u)
         own = None if cur is None else (cur, spheres.radii + config.robot_clearance)
         boxes = () if base_box is None else (base_box,)
