@@ -8,9 +8,9 @@ clears the scene's true geometry less the target at margin 0 -- the certificate'
 The scene's certified grasp (`oracle.find_grasp`) is counted separately. Two map sources:
 
 * fully observed: the true geometry rasterised (GROUND TRUTH, this benchmark only) at 1 cm
-  and at 5 mm in a box 0.2 m around the target: a voxel is occupied when the geometry
-  reaches into it (4^3 samples per voxel, each standing for its sub-cube), the target's own
-  voxels are free (a perfect carve). This isolates the resolution.
+  and at 5 mm in a box 0.2 m around the target: a voxel is occupied when the geometry holds
+  one of its 4^3 sub-cube centres; the target's own voxels are free (a perfect carve). This
+  isolates the resolution.
 * depth (the method's data): the grasp-only harness's map and fine local map from the same
   depth frames (`sim.grasp_only`, as `compass run --grasp-only` builds them), with the
   target model's carve and the robot's way; the checks of `grasp.checks.GraspChecks`.
@@ -46,11 +46,10 @@ from compass_manip.sim.world import World
 
 @njit(cache=True)
 def _occupied(origin, res, shape, prims, n_sub):
-    """(nx,ny,nz) True where the geometry reaches into the voxel: some sub-sample point of the
-    voxel lies within its sub-cube's half diagonal of the geometry."""
+    """(nx,ny,nz) True where the geometry holds one of the voxel's n_sub^3 sub-cube centres
+    (a board face on a voxel boundary does not mark the voxel beside it)."""
     out = np.zeros((shape[0], shape[1], shape[2]), np.bool_)
     h = 0.5 * math.sqrt(3.0) * res
-    hs = h / n_sub
     p = np.empty(3)
     for i in range(shape[0]):
         for j in range(shape[1]):
@@ -58,11 +57,7 @@ def _occupied(origin, res, shape, prims, n_sub):
                 p[0] = origin[0] + (i + 0.5) * res
                 p[1] = origin[1] + (j + 0.5) * res
                 p[2] = origin[2] + (k + 0.5) * res
-                d = primitives_distance(p, prims, -np.inf)
-                if d > h:
-                    continue
-                if d <= hs:
-                    out[i, j, k] = True
+                if primitives_distance(p, prims, -np.inf) > h:
                     continue
                 for a in range(n_sub):
                     for b in range(n_sub):
@@ -70,7 +65,7 @@ def _occupied(origin, res, shape, prims, n_sub):
                             p[0] = origin[0] + (i + (a + 0.5) / n_sub) * res
                             p[1] = origin[1] + (j + (b + 0.5) / n_sub) * res
                             p[2] = origin[2] + (k + (c + 0.5) / n_sub) * res
-                            if primitives_distance(p, prims, hs) <= hs:
+                            if primitives_distance(p, prims, 0.0) < 0.0:
                                 out[i, j, k] = True
                                 break
                         if out[i, j, k]:
