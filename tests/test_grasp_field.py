@@ -85,6 +85,17 @@ def test_checked_field_is_sound_and_exact_inside():
     coarse = DistanceField.from_unsafe(unsafe, np.zeros(3), res).distances
     v = coarse[0, 0, 0] - 0.25 * res * math.sqrt(3) - 0.5 * math.sqrt(3) * res + 0.5 * math.sqrt(3) * res / u
     assert f.distances[0, 0, 0] == pytest.approx(max(v, 0.0), abs=1e-6)
+    # the robot's own spheres (their map voxels made safe) raise the field around them, soundly
+    c, R = np.array([[0.05, 0.06, 0.05], [0.2, 0.15, 0.12]]), np.array([0.04, 0.05])
+    cleared = unsafe.copy()
+    _clear_spheres(cleared, np.zeros(3), res, c, R)
+    f2 = checked_field(cleared, np.zeros(3), res, a, b, u, safe_spheres=(c, R))
+    f3 = checked_field(cleared, np.zeros(3), res, a, b, u)
+    assert np.all(f2.distances >= f3.distances) and np.any(f2.distances > f3.distances + 1e-3)
+    bound = f2.distances[i[:, 0], i[:, 1], i[:, 2]] - np.linalg.norm(p - centre, axis=1) - 0.5 * math.sqrt(3) * res / u
+    lo2 = np.argwhere(cleared) * res
+    gap = np.maximum(np.maximum(lo2[None] - p[:, None], p[:, None] - (lo2[None] + res)), 0.0)
+    assert np.all(bound <= np.linalg.norm(gap, axis=2).min(axis=1) + 1e-6)
     with pytest.raises(CompassInputError, match="fine_unsafe"):
         checked_field(unsafe, np.zeros(3), res, a, b, u, np.zeros((3, 3, 3), bool))
 
