@@ -42,6 +42,7 @@ def main() -> int:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--out", default=None, help="append one JSON line per trial to this file")
     ap.add_argument("--variants", default="on,off", help="on, off or on,off")
+    ap.add_argument("--no-fine-map", action="store_true", help="check near the target on the 1 cm map only")
     args = ap.parse_args()
     variants = [v == "on" for v in args.variants.split(",")]
     recs = []
@@ -49,7 +50,7 @@ def main() -> int:
         for index in range(args.start, args.start + args.count):
             scene = certified_scene(level, index, args.seed).scene
             for constrained in variants:
-                config = GraspOnlyConfig(select=GraspSelectConfig(constrained=constrained))
+                config = GraspOnlyConfig(select=GraspSelectConfig(constrained=constrained), fine_map=not args.no_fine_map)
                 t0 = time.perf_counter()
                 r = run_grasp_only(scene, config, seed=args.seed)
                 rec = trial_record(level, index, constrained, r, time.perf_counter() - t0)

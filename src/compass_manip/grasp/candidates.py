@@ -17,6 +17,7 @@ from dataclasses import dataclass
 from typing import Protocol
 
 import numpy as np
+from numba import njit, prange
 
 from ..errors import CompassInputError
 from ..robot.model import GRIPPER_MAX_WIDTH
@@ -177,21 +178,36 @@ def _perp_basis(y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return e1, np.cross(y, e1)
 
 
-def palm_clear(points: np.ndarray, T_world_tcp: np.ndarray, width: np.ndarray, chunk: int = 2048) -> np.ndarray:
+def palm_clear(points: np.ndarray, T_world_tcp: np.ndarray, width: np.ndarray) -> np.ndarray:
     """(M,) True where no target point lies between the fingers deeper than PALM_DEPTH
     behind the TCP (it would be pushed by the palm, which the map cannot stop: the
     target's own voxels are carved for the fingers). The points are thinned to
-    PALM_POINT_SPACING (the region has 1 cm margins); each hand axis is one matrix product
-    (points x candidates)."""
-    out = np.ones(len(T_world_tcp), dtype=bool)
-    P = thin(np.asarray(points, dtype=np.float64), PALM_POINT_SPACING)
-    for a in range(0, len(T_world_tcp), chunk):
-        T = T_world_tcp[a:a + chunk]
-        t = T[:, :3, 3]
-        loc = [P @ T[:, :3, k].T - np.sum(t * T[:, :3, k], axis=1)[None] for k in range(3)]  # (N, m) each
-        inside = (np.abs(loc[0]) <= FINGER_HALF_WIDTH + 0.01) & \
-                 (np.abs(loc[1]) <= 0.5 * width[None, a:a + chunk] + 0.01)
-        out[a:a + chunk] = ~np.any(inside & (loc[2] < -PALM_DEPTH), axis=0)
+    PALM_POINT_SPACING (the region has 1 cm margins); one numba pass, a candidate stops at
+    its first such point."""
+    P = np.ascontiguousarray(thin(np.asarray(points, dtype=np.float64), PALM_POINT_SPACING))
+    T = np.ascontiguousarray(np.asarray(T_world_tcp, dtype=np.float64).reshape(-1, 4, 4))
+    return _palm_clear(P, T, np.ascontiguousarray(width, dtype=np.float64), FINGER_HALF_WIDTH + 0.01, PALM_DEPTH)
+
+
+@njit(cache=True, parallel=True)
+def _palm_clear(P, T, width, half_finger, depth):
+    out = np.ones(T.shape[0], dtype=np.bool_)
+    for m in prange(T.shape[0]):
+        t0 = T[m, 0, 3] * T[m, 0, 0] + T[m, 1, 3] * T[m, 1, 0] + T[m, 2, 3] * T[m, 2, 0]
+        t1 = T[m, 0, 3] * T[m, 0, 1] + T[m, 1, 3] * T[m, 1, 1] + T[m, 2, 3] * T[m, 2, 1]
+        t2 = T[m, 0, 3] * T[m, 0, 2] + T[m, 1, 3] * T[m, 1, 2] + T[m, 2, 3] * T[m, 2, 2]
+        half_w = 0.5 * width[m] + 0.01
+        for n in range(P.shape[0]):
+            z = P[n, 0] * T[m, 0, 2] + P[n, 1] * T[m, 1, 2] + P[n, 2] * T[m, 2, 2] - t2
+            if z >= -depth:
+                continue
+            x = P[n, 0] * T[m, 0, 0] + P[n, 1] * T[m, 1, 0] + P[n, 2] * T[m, 2, 0] - t0
+            if abs(x) > half_finger:
+                continue
+            y = P[n, 0] * T[m, 0, 1] + P[n, 1] * T[m, 1, 1] + P[n, 2] * T[m, 2, 1] - t1
+            if abs(y) <= half_w:
+                out[m] = False
+                break
     return out
 
 

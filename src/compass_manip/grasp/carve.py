@@ -16,13 +16,15 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from ..errors import CompassInputError
-from ..mapping.distance import DistanceField, unsafe_mask
+from ..mapping.distance import DistanceField, _clear_spheres, unsafe_mask
 from ..mapping.occupancy import OccupancyMap, VoxelState
 from .target import TargetModel
 
 
-def target_carve(occ: OccupancyMap, target: TargetModel, clearance: float) -> np.ndarray:
-    """(nx, ny, nz) bool mask of voxels to treat as safe around the target (module doc)."""
+def target_carve(occ: OccupancyMap, target: TargetModel, clearance: float, own_radius: float = 0.0) -> np.ndarray:
+    """(nx, ny, nz) bool mask of voxels to treat as safe around the target (module doc).
+    own_radius [m]: an occupied voxel whose centre lies within it of a target point is the
+    target's too (on a grid finer than the points' spacing a surface voxel may hold none)."""
     res = occ.resolution
     shape = np.asarray(occ.shape)
     lo = occ.world_to_voxel((target.points.min(0) - clearance - res)[None])[0]
@@ -31,10 +33,12 @@ def target_carve(occ: OccupancyMap, target: TargetModel, clearance: float) -> np
     mask = np.zeros(occ.shape, dtype=bool)
     axes = [np.arange(lo[a], hi[a] + 1) for a in range(3)]
     ijk = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
-    centres = occ.voxel_to_world(ijk)
-    near = cKDTree(target.points).query(centres, k=1, distance_upper_bound=clearance)[0] <= clearance
-    near &= centres[:, 2] >= target.bottom_z
     st = occ.state[ijk[:, 0], ijk[:, 1], ijk[:, 2]]
+    keep = st != VoxelState.FREE  # only unknown or occupied voxels are ever carved
+    ijk, st = ijk[keep], st[keep]
+    centres = occ.voxel_to_world(ijk)
+    near = centres[:, 2] >= target.bottom_z
+    near[near] = cKDTree(target.points).query(centres[near], k=1, distance_upper_bound=clearance)[0] <= clearance
     has_point = np.zeros(occ.shape, dtype=bool)
     tv = occ.world_to_voxel(target.points)
     tv = tv[occ.in_grid(tv)]
@@ -43,6 +47,8 @@ def target_carve(occ: OccupancyMap, target: TargetModel, clearance: float) -> np
     mid = 0.5 * (proj.min(0) + proj.max(0))
     inside = np.all(np.abs(centres @ target.axes - mid) <= 0.5 * (proj.max(0) - proj.min(0)), axis=1)
     own = has_point[ijk[:, 0], ijk[:, 1], ijk[:, 2]] | inside
+    if own_radius > 0.0 and len(centres):
+        own |= cKDTree(target.points).query(centres, k=1, distance_upper_bound=own_radius)[0] <= own_radius
     ok = near & ((st == VoxelState.UNKNOWN) | ((st == VoxelState.OCCUPIED) & own))
     sel = ijk[ok]
     mask[sel[:, 0], sel[:, 1], sel[:, 2]] = True
@@ -59,6 +65,43 @@ def grasp_unsafe(occ: OccupancyMap, target: TargetModel, clearance: float,
     if extra_safe is not None:
         carve |= np.asarray(extra_safe, dtype=bool)
     return unsafe_mask(occ, safe_voxels=carve, safe_spheres=safe_spheres)
+
+
+def clear_spheres_box(mask: np.ndarray, origin: np.ndarray, resolution: float, centres: np.ndarray,
+                      radii: np.ndarray) -> np.ndarray:
+    """Set False in `mask` (a box of voxels, low corner origin (3,) [m]) every voxel whose
+    centre lies inside a sphere (centres (S,3), radii (S,) [m]); spheres that cannot reach
+    the box are skipped before the kernel. Returns mask."""
+    c = np.ascontiguousarray(np.asarray(centres, dtype=np.float64).reshape(-1, 3))
+    r = np.ascontiguousarray(np.asarray(radii, dtype=np.float64).reshape(-1))
+    if len(c) != len(r) or not (np.all(np.isfinite(c)) and np.all(np.isfinite(r)) and np.all(r >= 0)):
+        raise CompassInputError("safe spheres must be finite centres (S, 3) [m] and radii (S,) >= 0 [m]")
+    hi = np.asarray(origin) + np.asarray(mask.shape) * resolution
+    near = np.all((c + r[:, None] >= origin) & (c - r[:, None] <= hi), axis=1)
+    _clear_spheres(mask, np.asarray(origin, dtype=np.float64), float(resolution), c[near], r[near])
+    return mask
+
+
+def grasp_unsafe_box(occ: OccupancyMap, target: TargetModel, clearance: float, a: np.ndarray, b: np.ndarray,
+                     safe_spheres: tuple[np.ndarray, np.ndarray] | None = None,
+                     extra_safe: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """`grasp_unsafe` restricted to the map-voxel index box [a, b) (3,) (only that box is
+    computed), with the robot's own space in it: (unsafe, robot_safe, carve) bool masks of
+    the box's shape; robot_safe holds the voxels the spheres or `extra_safe` mark safe."""
+    sl = tuple(slice(int(a[k]), int(b[k])) for k in range(3))
+    carve = target_carve(occ, target, clearance)[sl]
+    robot = np.zeros(carve.shape, dtype=bool)
+    if extra_safe is not None:
+        es = np.asarray(extra_safe, dtype=bool)
+        if es.shape != occ.shape:
+            raise CompassInputError(f"extra_safe has shape {es.shape}; the map's shape {occ.shape} is required")
+        robot |= es[sl]
+    if safe_spheres is not None:
+        free = np.ones(carve.shape, dtype=bool)
+        origin = occ.grid_min + np.asarray(a) * occ.resolution
+        robot |= ~clear_spheres_box(free, origin, occ.resolution, safe_spheres[0], safe_spheres[1])
+    unsafe = (occ.state[sl] != VoxelState.FREE) & ~carve & ~robot
+    return unsafe, robot, carve
 
 
 def grasp_field(occ: OccupancyMap, target: TargetModel, clearance: float,

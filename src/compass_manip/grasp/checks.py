@@ -1,35 +1,46 @@
 """The checks of one grasp selection against the map, on a finer grid.
 
 The unsafe space (unknown or occupied, less the target's carve and the robot's own space,
-`carve.grasp_unsafe`) becomes a distance field `field_upsample` times finer than the map in
-a box holding the robot as it stands and the target (`carve.local_fine_field`; outside the
-box is unsafe). Every unsafe voxel is split into unsafe sub-voxels, so the unsafe space is
-the same cubes; a checker's conservative bound (distance at the nearest grid centre, minus
-the offset to it and half a grid diagonal) then loses at most one fine voxel diagonal
-(8.7 mm at 5 mm) instead of one map voxel diagonal (17 mm at 1 cm), which is the clearance
-the certified scenes leave around the hand. The hand (every link rigid with the TCP) is
-checked on it at the grasp, along the approach and along the lift (`hand_clear`) before
-any IK; configurations and straight edges use the whole robot on it, and the planned path
-to the pre-grasp (`plan`) keeps `plan_margin` more (a free-space ray grazing a board's edge
-can mark a voxel free that the board still reaches into) and has the target itself, carved
-from the map for the fingers, back as an obstacle (`target_box`): the hand must not sweep
-through it on its way to the pre-grasp.
+`carve.grasp_unsafe_box`, computed only in a box holding the robot as it stands and the
+target; outside the box is unsafe) becomes one distance field `field_upsample` times finer
+than the map (`field.checked_field`). It is exact at the fine resolution where precision
+pays (`exact_boxes`: the target and the wrist as it stands, between which the path to the
+pre-grasp runs, and the base column) and elsewhere a sound bound from the map-grid
+transform. In the exact part every unsafe map voxel is split into unsafe fine cells, or,
+with a fine local occupancy map integrated from the same depth frames, the fine map's own
+labels decide (`field.fine_unsafe_labels`). A checker's conservative bound (distance at the
+nearest grid centre, minus the offset to it and half a grid diagonal) then loses at most
+one fine voxel diagonal (8.7 mm at 5 mm) near the target. The hand (every link rigid with
+the TCP) is checked on it at the grasp, along the approach and along the lift
+(`hand_clear`, numba) before any IK; configurations and straight edges use the whole robot
+on it, and the planned path to the pre-grasp (`plan`) keeps `plan_margin` more (a
+free-space ray grazing a board's edge can mark a voxel free that the board still reaches
+into; at most the clearance the robot has where it stands, so the start is valid) and has
+the target itself, carved from the map for the fingers, back as an obstacle (`target_box`):
+the hand must not sweep through it on its way to the pre-grasp.
 """
 from __future__ import annotations
 
 import math
+import time
 
 import numpy as np
+from numba import njit, prange
 
+from ..errors import CompassInputError
 from ..geometry import make_T
 from ..mapping.distance import DistanceField
 from ..mapping.occupancy import OccupancyMap
 from ..motion.primitives import DistanceGrid, PrimitiveSet
 from ..motion.validity import ValidityChecker, ValidityConfig
 from ..robot.spheres import SphereModel
-from .carve import grasp_unsafe, local_fine_field
+from .carve import grasp_unsafe_box, target_carve
+from .field import checked_field, fine_map_range, fine_unsafe_labels, upsample_mask
 from .target import TargetModel
 
+#: Links of the base column (their neighbourhood gets the exact fine field: at the floor
+#: the map-grid bound left their spheres with less than the plan's margin).
+BASE_LINKS = ("panda_link1", "panda_link2")
 #: Links rigid with the TCP (checked on the fine field before any IK).
 HAND_LINKS = ("panda_link7", "panda_link8", "hand/panda_hand", "hand/panda_leftfinger", "hand/panda_rightfinger")
 
@@ -49,19 +60,38 @@ def hand_clear(field: DistanceField, T_world_tcp: np.ndarray, local: tuple[np.nd
                voxel_extent: bool = True) -> np.ndarray:
     """(M,) True where every rigid hand sphere at each TCP pose (M,4,4) clears unsafe space,
     with the validity checker's conservative bound (nearest voxel centre, its offset and
-    half a voxel diagonal subtracted)."""
+    half a voxel diagonal subtracted). One numba pass; a pose stops at its first sphere
+    that does not clear."""
     C, r = local
-    W = np.einsum("mij,kj->mki", T_world_tcp[:, :3, :3], C) + T_world_tcp[:, None, :3, 3]
-    res = field.resolution
-    f = (W - field.grid_min) / res - 0.5
-    i = np.floor(f + 0.5).astype(np.int64)
-    shape = np.asarray(field.distances.shape)
-    inside = np.all((i >= 0) & (i < shape), axis=-1)
-    ic = np.clip(i, 0, shape - 1)
-    d = field.distances[ic[..., 0], ic[..., 1], ic[..., 2]]
-    half = 0.5 * math.sqrt(3.0) * res if voxel_extent else 0.0
-    clear = d - np.linalg.norm(f - i, axis=-1) * res - half - r
-    return np.all(inside & (clear >= 0.0), axis=1)
+    T = np.ascontiguousarray(np.asarray(T_world_tcp, dtype=np.float64).reshape(-1, 4, 4))
+    half = 0.5 * math.sqrt(3.0) * field.resolution if voxel_extent else 0.0
+    return _hand_clear(field.distances, np.asarray(field.grid_min, dtype=np.float64), float(field.resolution), T,
+                       np.ascontiguousarray(C, dtype=np.float64), np.ascontiguousarray(r, dtype=np.float64), half)
+
+
+@njit(cache=True, parallel=True)
+def _hand_clear(dist, grid_min, res, T, C, r, half):
+    nx, ny, nz = dist.shape
+    out = np.ones(T.shape[0], dtype=np.bool_)
+    for m in prange(T.shape[0]):
+        for k in range(C.shape[0]):
+            off = 0.0
+            idx = np.empty(3, np.int64)
+            ok = True
+            for a in range(3):
+                w = T[m, a, 0] * C[k, 0] + T[m, a, 1] * C[k, 1] + T[m, a, 2] * C[k, 2] + T[m, a, 3]
+                f = (w - grid_min[a]) / res - 0.5
+                i = int(math.floor(f + 0.5))
+                n = nx if a == 0 else (ny if a == 1 else nz)
+                if i < 0 or i >= n:
+                    ok = False
+                    break
+                idx[a] = i
+                off += (f - i) * (f - i)
+            if not ok or dist[idx[0], idx[1], idx[2]] - math.sqrt(off) * res - half - r[k] < 0.0:
+                out[m] = False
+                break
+    return out
 
 
 def offset_pose(T: np.ndarray, along_approach: float = 0.0, up: float = 0.0) -> np.ndarray:
@@ -81,6 +111,30 @@ def target_box(target: TargetModel, grow: float = 0.005) -> PrimitiveSet:
     return PrimitiveSet.from_lists(boxes=[(T, 0.5 * (hi - lo) + grow)])
 
 
+def exact_boxes(occ: OccupancyMap, a: np.ndarray, b: np.ndarray, target: TargetModel, spheres: SphereModel,
+                cur: np.ndarray | None, inner_margin: float, base_margin: float):
+    """Map-voxel index ranges (relative to the checked box [a, b)) where the checked field is
+    exact at the fine resolution: (ia, ib) the target's points grown by inner_margin [m]
+    together with the wrist and hand as they stand (cur: sphere centres at q_current, or
+    None), grown by base_margin [m] (the planned way to the pre-grasp runs between them),
+    and the base column's box (None without cur): near the floor the map-grid bound left
+    its spheres less than the plan's margin."""
+    lo, hi = target.points.min(0) - inner_margin, target.points.max(0) + inner_margin
+    base = None
+    if cur is not None:
+        wrist = _hand_mask(spheres) | (spheres.body_index == spheres.link_names.index("panda_link6"))
+        lo = np.minimum(lo, (cur[wrist] - spheres.radii[wrist, None]).min(0) - base_margin)
+        hi = np.maximum(hi, (cur[wrist] + spheres.radii[wrist, None]).max(0) + base_margin)
+        col = np.isin(spheres.body_index, [spheres.link_names.index(k) for k in BASE_LINKS])
+        blo = (cur[col] - spheres.radii[col, None]).min(0) - base_margin
+        bhi = (cur[col] + spheres.radii[col, None]).max(0) + base_margin
+        base = (np.clip(occ.world_to_voxel(blo[None])[0] - a, 0, b - a),
+                np.clip(occ.world_to_voxel(bhi[None])[0] + 1 - a, 0, b - a))
+    ia = np.clip(occ.world_to_voxel(lo[None])[0] - a, 0, b - a)
+    ib = np.clip(occ.world_to_voxel(hi[None])[0] + 1 - a, 0, b - a)
+    return ia, ib, base
+
+
 def _hand_mask(spheres: SphereModel) -> np.ndarray:
     return np.isin(spheres.body_index, [spheres.link_names.index(k) for k in HAND_LINKS if k in spheres.link_names])
 
@@ -91,19 +145,54 @@ class GraspChecks:
 
     def __init__(self, occ: OccupancyMap, target: TargetModel, spheres: SphereModel, ik, config,
                  safe_spheres: tuple[np.ndarray, np.ndarray], extra_safe: np.ndarray | None = None,
-                 q_current: np.ndarray | None = None, box_margin: float = 0.25):
+                 q_current: np.ndarray | None = None, box_margin: float = 0.25,
+                 fine_map: OccupancyMap | None = None, inner_margin: float = 0.2, base_margin: float = 0.05,
+                 exact_everywhere: bool = False):
         self.ik, self.target, self.config = ik, target, config
-        unsafe = grasp_unsafe(occ, target, config.clearance, safe_spheres, extra_safe)
+        self.times: dict[str, float] = {}
+        t = time.perf_counter()
         pts = target.points
         if q_current is not None:  # the box holds the robot as it stands and the target
             pts = np.vstack([pts, spheres.sphere_centers(np.asarray(q_current, dtype=np.float64)[None])[0]])
-        self.fine = local_fine_field(unsafe, occ, pts.min(0) - box_margin, pts.max(0) + box_margin,
-                                     config.field_upsample)
+        shape = np.asarray(occ.shape)
+        a = np.clip(occ.world_to_voxel((pts.min(0) - box_margin)[None])[0], 0, shape - 1)
+        b = np.clip(occ.world_to_voxel((pts.max(0) + box_margin)[None])[0], 0, shape - 1) + 1
+        unsafe, robot, _ = grasp_unsafe_box(occ, target, config.clearance, a, b, safe_spheres, extra_safe)
+        self.times["unsafe_s"] = time.perf_counter() - t
+        t = time.perf_counter()
+        u = config.field_upsample
+        cur = None if q_current is None else spheres.sphere_centers(np.asarray(q_current, dtype=np.float64)[None])[0]
+        ia, ib, base_box = exact_boxes(occ, a, b, target, spheres, cur, inner_margin, base_margin)
+        if exact_everywhere:  # the whole box exact (slower)
+            ia, ib, base_box = np.zeros(3, np.int64), b - a, None
+        fine_unsafe = None
+        if fine_map is not None:  # the fine local map's own labels where it reaches into the inner box
+            fa, fb, fu = fine_map_range(occ, fine_map)
+            if fu != u:
+                raise CompassInputError(f"fine_map is {fu} times finer than the map; field_upsample {u} needs {u}")
+            fine_unsafe = upsample_mask(unsafe[ia[0]:ib[0], ia[1]:ib[1], ia[2]:ib[2]], u)
+            lo, hi = np.maximum(fa, a + ia), np.minimum(fb, a + ib)
+            if np.all(hi > lo):
+                sl = tuple(slice(int(lo[k] - a[k]), int(hi[k] - a[k])) for k in range(3))
+                fsl = tuple(slice(int(u * (lo[k] - fa[k])), int(u * (hi[k] - fa[k]))) for k in range(3))
+                dst = tuple(slice(int(u * (lo[k] - a[k] - ia[k])), int(u * (hi[k] - a[k] - ia[k]))) for k in range(3))
+                fine_carve = target_carve(fine_map, target, config.clearance,  # a fine voxel diagonal: as a map voxel
+                                          math.sqrt(3.0) * fine_map.resolution)[fsl]  # holding a point reaches
+                fine_unsafe[dst] = fine_unsafe_labels(fine_map.state[fsl], unsafe[sl], robot[sl], fine_carve, u)
+        own = None if cur is None else (cur, spheres.radii + config.robot_clearance)
+        boxes = () if base_box is None else (base_box,)
+        self.fine = checked_field(unsafe, occ.grid_min + a * occ.resolution, occ.resolution, ia, ib, u, fine_unsafe,
+                                  own, boxes)
+        self.times["field_s"] = time.perf_counter() - t
         grid = DistanceGrid.from_distance_field(self.fine)
         vc = ValidityConfig(voxel_extent=config.voxel_extent)
         self.full = ValidityChecker(spheres, grid=grid, config=vc)
+        margin = config.plan_margin
+        if q_current is not None:  # the robot stands at q_current: the path keeps the margin, or what the start has
+            margin = float(min(margin, max(0.0, self.full.clearance(np.asarray(q_current, dtype=np.float64)) - 1e-4)))
+        self.plan_margin = margin
         self.plan = ValidityChecker(spheres, grid=grid, obstacles=target_box(target),
-                                    config=ValidityConfig(voxel_extent=config.voxel_extent, margin=config.plan_margin))
+                                    config=ValidityConfig(voxel_extent=config.voxel_extent, margin=margin))
 
     def valid(self, Q: np.ndarray) -> np.ndarray:
         """(N,) configurations free of the map and of self-collision."""

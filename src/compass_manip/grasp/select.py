@@ -35,12 +35,13 @@ from ..motion.planner import PlannerConfig, plan
 from ..motion.primitives import DistanceGrid
 from ..motion.validity import ValidityChecker, ValidityConfig
 from ..robot.ik import PandaIK
-from ..robot.model import Q_MAX, Q_MIN, check_q
+from ..robot.model import check_q
 from ..robot.spheres import SphereModel
 from ..task import Task
 from .candidates import AntipodalProposer, CandidateConfig, GraspCandidates, GraspProposer
 from .carve import grasp_field
 from .checks import GraspChecks, hand_clear, offset_pose, rigid_hand_spheres  # noqa: F401 (re-exported)
+from .robot_space import base_volume, base_volume_mask  # noqa: F401 (re-exported)
 from .target import TargetModel
 
 
@@ -83,7 +84,10 @@ class GraspSelectConfig:
     approach); voxel_extent: unsafe voxels are cubes (the checker subtracts half a voxel
     diagonal) rather than points at their centres; field_upsample: the checked field's grid
     near the target is this many times finer than the map's (`checks.GraspChecks`); plan_margin
-    [m] kept by the planned path to the pre-grasp; planner: settings of that path."""
+    [m] kept by the planned path to the pre-grasp; exact_fallback: when no candidate passes
+    the arm's checks and the path on the field that is exact only near the target, the wrist
+    and the base, run those checks again on a field exact in the whole box (the selection
+    then equals one made on that field throughout); planner: settings of that path."""
 
     constrained: bool = True
     max_approach_angle: float = math.radians(50.0)
@@ -99,6 +103,7 @@ class GraspSelectConfig:
     voxel_extent: bool = True
     field_upsample: int = 2
     plan_margin: float = 0.005
+    exact_fallback: bool = True
     candidates: CandidateConfig = field(default_factory=CandidateConfig)
     planner: PlannerConfig = field(default_factory=lambda: PlannerConfig(time_budget=0.5))
 
@@ -126,7 +131,9 @@ class GraspSelection:
     approach_angle [rad] between z_g and n; ik_free: q_grasp is free in the map;
     gpq = s * 1[ik_free] * cos(approach_angle); n desired approach; n_candidates proposed;
     rejections: count per `Rejection`; time_s selection wall time [s] (plan_time_s of it
-    in the planner); failure: None on success."""
+    in the planner); failure: None on success; stage_times [s] per stage (unsafe: the map's
+    unsafe space in the checked box, field: the checked field, candidates, hand: the rigid
+    hand's checks, ik: IK and configuration checks, plan: the path)."""
 
     T_world_tcp: np.ndarray | None
     width: float
@@ -146,6 +153,7 @@ class GraspSelection:
     failure: GraspFailure | None
     pregrasp_distance: float = 0.0
     lift_height: float = 0.0
+    stage_times: dict = field(default_factory=dict)
 
     @property
     def success(self) -> bool:
@@ -187,27 +195,12 @@ def gpq(score: float, ik_free: bool, angle: float) -> float:
     return float(score) * float(bool(ik_free)) * math.cos(angle)
 
 
-def base_volume(spheres: SphereModel, q_ref: np.ndarray, n_q1: int = 36,
-                n_q2: int = 7) -> tuple[np.ndarray, np.ndarray]:
-    """Spheres (centres (S,3) [m], radii (S,) [m]) of the links up to panda_link2 swept over
-    joints 1 and 2: the robot's own space around its base column, which no camera on the
-    wrist sees and nothing else can occupy (it would collide at home already)."""
-    keep = np.isin(spheres.body_index, [spheres.link_names.index(k) for k in ("panda_link0", "panda_link1",
-                                                                               "panda_link2")])
-    q1 = np.linspace(Q_MIN[0], Q_MAX[0], n_q1)
-    q2 = np.linspace(-1.2, 1.2, n_q2)
-    Q = np.repeat(np.asarray(q_ref, dtype=np.float64)[None], n_q1 * n_q2, axis=0)
-    Q[:, 0] = np.repeat(q1, n_q2)
-    Q[:, 1] = np.tile(q2, n_q1)
-    C = spheres.sphere_centers(Q)[:, keep]
-    return C.reshape(-1, 3), np.tile(spheres.radii[keep] + 0.02, len(Q))
-
-
 def select_grasp(target: TargetModel, occ: OccupancyMap, task: Task, q_current: np.ndarray,
                  spheres: SphereModel, config: GraspSelectConfig | None = None,
                  rng: np.random.Generator | None = None, proposer: GraspProposer | None = None,
                  safe_spheres: tuple[np.ndarray, np.ndarray] | None = None,
-                 ik: PandaIK | None = None, extra_safe: np.ndarray | None = None) -> GraspSelection:
+                 ik: PandaIK | None = None, extra_safe: np.ndarray | None = None,
+                 fine_map: OccupancyMap | None = None) -> GraspSelection:
     """Select a grasp of `target` (Eq. 6) against the map `occ` from q_current (7,) [rad].
 
     spheres: the robot's sphere model with the fingers open (the approach width);
@@ -215,7 +208,11 @@ def select_grasp(target: TargetModel, occ: OccupancyMap, task: Task, q_current: 
     network); safe_spheres: extra robot volume known to be free, (centres (S,3), radii (S,))
     [m] (e.g. the arm's spheres along its past path); the robot's spheres at q_current are
     always marked safe, and so is the space around the base column (`base_volume`);
-    extra_safe: a voxel mask of the map's shape the caller takes as free. rng: explicit generator (required).
+    extra_safe: a voxel mask of the map's shape the caller takes as free (e.g. a
+    `robot_space.RobotSpaceMask` kept as the robot moved); fine_map: an occupancy map
+    `field_upsample` times finer than occ over a box around the target, integrated from the
+    same depth frames (`field.local_fine_map`): the checks near the target use its labels.
+    rng: explicit generator (required).
     """
     t0 = time.perf_counter()
     if rng is None:
@@ -226,35 +223,51 @@ def select_grasp(target: TargetModel, occ: OccupancyMap, task: Task, q_current: 
     ik = ik or PandaIK(spheres.kinematics)
     n = desired_approach(target, task)
     cur = spheres.sphere_centers(q_current[None])[0]
-    base_c, base_r = base_volume(spheres, q_current)
-    safe_c, safe_r = np.vstack([cur, base_c]), np.r_[spheres.radii + config.robot_clearance, base_r]
+    safe_c, safe_r = cur, spheres.radii + config.robot_clearance
+    base = base_volume_mask(spheres, occ)
+    if extra_safe is not None and np.shape(extra_safe) != occ.shape:
+        raise CompassInputError(f"extra_safe has shape {np.shape(extra_safe)}; the map's shape {occ.shape} is required")
+    extra_safe = base if extra_safe is None else base | np.asarray(extra_safe, dtype=bool)
     if safe_spheres is not None:
         safe_c = np.vstack([safe_c, np.asarray(safe_spheres[0]).reshape(-1, 3)])
         safe_r = np.r_[safe_r, np.asarray(safe_spheres[1]).reshape(-1)]
-    checks = GraspChecks(occ, target, spheres, ik, config, (safe_c, safe_r), extra_safe, q_current)
+    checks = GraspChecks(occ, target, spheres, ik, config, (safe_c, safe_r), extra_safe, q_current,
+                         fine_map=fine_map)
     field_, checker = checks.fine, checks.full
+    stages = dict(checks.times)
+    t_stage = time.perf_counter()
     if config.constrained and "toward" in inspect.signature(proposer.propose).parameters:
         # sample approaches only inside the cone the constraint allows
         cands = proposer.propose(target, rng, toward=n, max_angle=config.max_approach_angle)
     else:
         cands = proposer.propose(target, rng)
+    stages["candidates_s"] = time.perf_counter() - t_stage
+    t_stage = time.perf_counter()
     rejections: Counter = Counter()
+    ik_rej: Counter = Counter()  # the IK stage's rejections (of the last field it ran on)
     plan_time = 0.0
 
     pre_of = np.zeros(len(cands))
     lift_of = np.zeros(len(cands))
 
     def done(failure, idx=None, qs=None, path=None):
+        now = time.perf_counter()
+        if "hand_s" in stages:
+            stages["ik_s"] = max(0.0, now - t_stage - plan_time - stages.get("exact_field_s", 0.0))
+        else:
+            stages["hand_s"], stages["ik_s"] = now - t_stage, 0.0
+        stages["plan_s"] = plan_time
         if failure is not None:
             return GraspSelection(None, 0.0, 0.0, None, None, None, None, float("nan"), False, 0.0, n, len(cands),
-                                  dict(rejections), time.perf_counter() - t0, plan_time, failure)
+                                  {**rejections, **ik_rej}, time.perf_counter() - t0, plan_time, failure,
+                                  stage_times=dict(stages))
         T = cands.T_world_tcp[idx]
         ang = float(approach_angles(cands.take([idx]), n)[0])
         free = bool(checks.valid(np.asarray(qs[0])[None])[0])
         s = float(cands.score[idx])
         return GraspSelection(T, float(cands.width[idx]), s, *qs, path, ang, free, gpq(s, free, ang), n,
-                              len(cands), dict(rejections), time.perf_counter() - t0, plan_time, None,
-                              float(pre_of[idx]), float(lift_of[idx]))
+                              len(cands), {**rejections, **ik_rej}, time.perf_counter() - t0, plan_time, None,
+                              float(pre_of[idx]), float(lift_of[idx]), dict(stages))
 
     if len(cands) == 0:
         return done(GraspFailure.NO_CANDIDATE)
@@ -262,7 +275,7 @@ def select_grasp(target: TargetModel, occ: OccupancyMap, task: Task, q_current: 
     if not config.constrained:
         # the paper's planner (MoveIt on the OctoMap) takes unknown space as free
         loose = grasp_field(occ, target, config.clearance, safe_spheres=(safe_c, safe_r),
-                            extra_safe=occ.state == VoxelState.UNKNOWN)
+                            extra_safe=(occ.state == VoxelState.UNKNOWN) | extra_safe)
         plan_checker = ValidityChecker(spheres, grid=DistanceGrid.from_distance_field(loose),
                                        config=ValidityConfig(voxel_extent=config.voxel_extent))
         order = rng.permutation(len(cands))
@@ -328,45 +341,66 @@ def select_grasp(target: TargetModel, occ: OccupancyMap, task: Task, q_current: 
     z = cands.T_world_tcp[within, 2, 3]
     order = within[np.lexsort((-z, np.round(ang[within] / math.radians(10.0)), -lift_of[within],
                                -cands.score[within]))]
-    lift_clear = {h: checks.held_target_clear(h) for h in config.lift_heights}
-    feasible: list[tuple[int, tuple]] = []
-    n_free_ik = 0
+    stages["hand_s"] = time.perf_counter() - t_stage
+    t_stage = time.perf_counter()
 
-    def try_plan(group):
+    def search(chk):
+        """IK, configuration and path checks of the ordered candidates on one checked field;
+        (the selection or None, n_free_ik); rejections go to ik_rej."""
         nonlocal plan_time
-        goals = np.array([qs[1] for _, qs in group])
-        res = plan(q_current, goals, checks.plan, config.planner, rng)
-        plan_time += res.plan_time_s
-        if res.success:
-            idx, qs = group[res.goal_index]
-            return done(None, idx, qs, res.path)
-        rejections[Rejection.NO_PATH] += len(group)
-        return None
+        lift_clear = {h: chk.held_target_clear(h) for h in config.lift_heights}
+        feasible: list[tuple[int, tuple]] = []
+        n_free_ik = 0
 
-    for idx in order[: config.max_checked]:
-        if feasible and cands.score[idx] < cands.score[feasible[0][0]] and len(feasible) >= 1:
-            out = try_plan(feasible)  # the best score level is complete: plan to it first
-            if out is not None:
-                return out
-            feasible = []
-        qs, why = checks.check(cands.T_world_tcp[idx], q_current, pre_of[idx], lift_of[idx], lift_clear[lift_of[idx]])
-        why = None if why is None else Rejection[why]
-        if why is not None:
-            rejections[why] += 1
-            n_free_ik += why not in (Rejection.NO_IK, Rejection.IK_IN_COLLISION)
-            continue
-        n_free_ik += 1
-        feasible.append((int(idx), qs))
-        if len(feasible) >= config.max_feasible:
+        def try_plan(group):
+            nonlocal plan_time
+            goals = np.array([qs[1] for _, qs in group])
+            res = plan(q_current, goals, chk.plan, config.planner, rng)
+            plan_time += res.plan_time_s
+            if res.success:
+                idx, qs = group[res.goal_index]
+                return done(None, idx, qs, res.path)
+            ik_rej[Rejection.NO_PATH] += len(group)
+            return None
+
+        for idx in order[: config.max_checked]:
+            if feasible and cands.score[idx] < cands.score[feasible[0][0]] and len(feasible) >= 1:
+                out = try_plan(feasible)  # the best score level is complete: plan to it first
+                if out is not None:
+                    return out, n_free_ik
+                feasible = []
+            qs, why = chk.check(cands.T_world_tcp[idx], q_current, pre_of[idx], lift_of[idx], lift_clear[lift_of[idx]])
+            why = None if why is None else Rejection[why]
+            if why is not None:
+                ik_rej[why] += 1
+                n_free_ik += why not in (Rejection.NO_IK, Rejection.IK_IN_COLLISION)
+                continue
+            n_free_ik += 1
+            feasible.append((int(idx), qs))
+            if len(feasible) >= config.max_feasible:
+                out = try_plan(feasible)
+                if out is not None:
+                    return out, n_free_ik
+                feasible = []
+        if feasible:
             out = try_plan(feasible)
             if out is not None:
-                return out
-            feasible = []
-    if feasible:
-        out = try_plan(feasible)
-        if out is not None:
-            return out
-    if rejections[Rejection.NO_PATH]:
+                return out, n_free_ik
+        return None, n_free_ik
+
+    out, n_free_ik = search(checks)
+    if out is None and config.exact_fallback:
+        # the field is exact only near the target, the wrist and the base: before giving up,
+        # the arm's checks and the path again on a field exact everywhere in the box
+        t_ex = time.perf_counter()
+        checks = GraspChecks(occ, target, spheres, ik, config, (safe_c, safe_r), extra_safe, q_current,
+                             fine_map=fine_map, exact_everywhere=True)
+        stages["exact_field_s"] = time.perf_counter() - t_ex
+        ik_rej.clear()
+        out, n_free_ik = search(checks)
+    if out is not None:
+        return out
+    if ik_rej[Rejection.NO_PATH]:
         return done(GraspFailure.NO_PATH)
     if n_free_ik:
         return done(GraspFailure.NO_APPROACH_PATH)

@@ -207,7 +207,10 @@ class DistanceGrid:
     resolution: float
 
     def __post_init__(self) -> None:
-        d = np.ascontiguousarray(float_array(self.dist, "DistanceGrid.dist", "an (X, Y, Z) array [m]"), dtype=np.float32)
+        d = self.dist
+        if not (isinstance(d, np.ndarray) and d.dtype == np.float32):  # a float32 field is taken as it is
+            d = float_array(d, "DistanceGrid.dist", "an (X, Y, Z) array [m]")
+        d = np.ascontiguousarray(d, dtype=np.float32)
         if d.ndim != 3 or min(d.shape) < 1:
             raise CompassInputError(f"DistanceGrid.dist must be a non-empty (X,Y,Z) array, got {d.shape}")
         o = float_array(self.origin, "DistanceGrid.origin", "3 numbers [m]")

@@ -20,6 +20,8 @@ import numpy as np
 
 from ..exploration.wrist_sweep import wrist_sweep
 from ..geometry import look_at, make_T, rot_z
+from ..grasp.field import local_fine_map
+from ..grasp.robot_space import RobotSpaceMask
 from ..grasp.select import GraspSelectConfig, GraspSelection, select_grasp
 from ..grasp.target import TargetModel, backproject, build_target_model, TargetConfig
 from ..mapping.observe import integrate_observation
@@ -41,7 +43,10 @@ class GraspOnlyConfig:
     other reachable sampled views (each with explore_path_frames frames on its straight way
     from home) feed the map too, standing in for the views an exploration of the opening
     makes before it sees the target (their ways are marked as robot space); carve_margin [m] added to the
-    robot's spheres along the way it moved (marked safe in the map)."""
+    robot's spheres along the way it moved (marked safe in the map as it moves, `RobotSpaceMask`);
+    fine_map: the same depth frames also integrated at field_upsample x the map's resolution in a
+    box fine_margin [m] around the target's points (`grasp.field.local_fine_map`), the grasp's
+    hand checks near the target use its labels."""
 
     n_view_samples: int = 80
     view_distance: tuple[float, float] = (0.25, 0.5)
@@ -54,6 +59,8 @@ class GraspOnlyConfig:
     explore_views: int = 12
     explore_path_frames: int = 2
     carve_margin: float = 0.02
+    fine_map: bool = True
+    fine_margin: float = 0.2
     target: TargetConfig = field(default_factory=TargetConfig)
     select: GraspSelectConfig = field(default_factory=GraspSelectConfig)
     execute: GraspExecConfig = field(default_factory=GraspExecConfig)
@@ -62,7 +69,8 @@ class GraspOnlyConfig:
 @dataclass(frozen=True, eq=False)
 class GraspOnlyResult:
     """q_view the oracle start (None: no view found); visibility of the target from it;
-    n_target_points detected; selection and outcome (None when not reached); map_time_s,
+    n_target_points detected; selection and outcome (None when not reached); map_time_s (way_mask_s
+    of it marking the robot's way, as it moved), fine_map_s the fine local map's integration,
     success (lifted, held, no collision)."""
 
     q_view: np.ndarray | None
@@ -72,6 +80,8 @@ class GraspOnlyResult:
     selection: GraspSelection | None
     outcome: GraspOutcome | None
     map_time_s: float
+    way_mask_s: float = 0.0
+    fine_map_s: float = 0.0
 
     @property
     def success(self) -> bool:
@@ -97,7 +107,9 @@ class GraspOnlyResult:
             "collisions": [] if o is None else [f"{c.phase}:{c.robot_geom}->{c.other_geom}" for c in o.collisions],
             "lift_height": None if o is None else round(o.lift_height, 4),
             "hold_height": None if o is None else round(o.hold_height, 4),
-            "map_time_s": round(self.map_time_s, 3),
+            "map_time_s": round(self.map_time_s, 3), "way_mask_s": round(self.way_mask_s, 3),
+            "fine_map_s": round(self.fine_map_s, 3),
+            "stage_times_ms": None if s is None else {k: round(1e3 * v, 1) for k, v in s.stage_times.items()},
         }
 
 
@@ -210,33 +222,38 @@ def run_grasp_only(scene: SceneSpec, config: GraspOnlyConfig | None = None, seed
         t0 = time.perf_counter()
         spheres = panda_sphere_model(world.robot)
         occ = OccupancyMap(MapConfig())
-        moved = [q_home]
+        way = RobotSpaceMask(occ, spheres, config.carve_margin)  # the robot's own space, kept as it moves
+
+        def went(qs):
+            way.add(np.asarray(qs))
+
+        went([q_home])
         frames = [world.render(q_home, rgb=False, seg=False)]
         if config.home_sweep:
-            way = wrist_sweep(q_home)
-            frames += [world.render(q, rgb=False, seg=False) for q in way[1:-1]]
-            moved += list(way)
+            sweep = wrist_sweep(q_home)
+            frames += [world.render(q, rgb=False, seg=False) for q in sweep[1:-1]]
+            went(sweep)
         for q in near_field_configs(world, rng, config.near_field_views):
             frames.append(world.render(q, rgb=False, seg=False))
             m = max(1, int(np.ceil(np.max(np.abs(q - q_home)) / 0.1)))
-            moved += [q_home + (q - q_home) * k / m for k in range(m + 1)]
+            went([q_home + (q - q_home) * k / m for k in range(m + 1)])
         for q in reached[: config.explore_views]:
             if np.array_equal(q, q_view):
                 continue
             frames += [world.render(q_home + (q - q_home) * s, rgb=False, seg=False)
                        for s in np.linspace(0.0, 1.0, config.explore_path_frames + 2)[1:]]
             m = max(1, int(np.ceil(np.max(np.abs(q - q_home)) / 0.05)))
-            moved += [q_home + (q - q_home) * k / m for k in range(m + 1)]
+            went([q_home + (q - q_home) * k / m for k in range(m + 1)])
         n = max(1, int(np.ceil(np.max(np.abs(q_view - q_home)) / 0.05)))
-        moved += [q_home + (q_view - q_home) * k / n for k in range(n + 1)]
+        went([q_home + (q_view - q_home) * k / n for k in range(n + 1)])
         frames += [world.render(q_home + (q_view - q_home) * s, rgb=False, seg=False)
                    for s in np.linspace(0.0, 1.0, config.path_frames + 2)[1:-1]]
         view = world.render(q_view, rgb=False, seg=True)
         frames.append(view)
         if config.view_sweep:
-            way = wrist_sweep(q_view, n=6, amplitude=0.4)
-            frames += [world.render(q, rgb=False, seg=False) for q in way[1:-1]]
-            moved += list(way)
+            sweep = wrist_sweep(q_view, n=6, amplitude=0.4)
+            frames += [world.render(q, rgb=False, seg=False) for q in sweep[1:-1]]
+            went(sweep)
         for f in frames:
             integrate_observation(occ, f, spheres, world.camera.depth_max)
         points = oracle_detection(world, view)
@@ -245,15 +262,21 @@ def run_grasp_only(scene: SceneSpec, config: GraspOnlyConfig | None = None, seed
             return GraspOnlyResult(q_view, vis, len(points), None, None, None, map_time)
         task = scene.task()
         target = build_target_model(points, view.T_world_cam[:3, 3], task.target, occ, config.target)
-        Q = np.asarray(moved)
-        centres = spheres.sphere_centers(Q).reshape(-1, 3)
-        radii = np.tile(spheres.radii + config.carve_margin, len(Q))
-        extra = near_body_unknown(occ, spheres, q_home) if config.near_body_free else None
-        sel = select_grasp(target, occ, task, q_view, spheres, config.select, rng, safe_spheres=(centres, radii),
-                           extra_safe=extra)
+        extra = way.mask
+        if config.near_body_free:
+            extra = extra | near_body_unknown(occ, spheres, q_home)
+        fine, fine_time = None, 0.0
+        if config.fine_map:  # the same frames at 5 mm in a box around the target's points
+            t1 = time.perf_counter()
+            fine = local_fine_map(occ, points.min(0) - config.fine_margin, points.max(0) + config.fine_margin,
+                                  config.select.field_upsample)
+            for f in frames:
+                integrate_observation(fine, f, spheres, world.camera.depth_max)
+            fine_time = time.perf_counter() - t1
+        sel = select_grasp(target, occ, task, q_view, spheres, config.select, rng, extra_safe=extra, fine_map=fine)
         world.set_q(q_view, GRIPPER_MAX_WIDTH)
         outcome = execute_grasp(world, sel, q_view, config.execute)
-        return GraspOnlyResult(q_view, vis, len(points), target, sel, outcome, map_time)
+        return GraspOnlyResult(q_view, vis, len(points), target, sel, outcome, map_time, way.time_s, fine_time)
     finally:
         if own:
             world.close()

@@ -1,0 +1,200 @@
+"""The distance field a grasp selection checks against: fine near the target, cheap elsewhere.
+
+One grid `upsample` times finer than the map covers a box holding the robot as it stands
+and the target (outside it is unsafe), so the whole-arm validity checker and the rigid-hand
+checks share it. Only an inner box around the target gets an exact fine transform; the
+rest of the grid takes a bound derived from the map-resolution transform:
+
+* outer cells: v(c) = D(C) - |c - c_C| - h_map + h_fine, with C the map voxel holding the
+  fine cell c, D(C) the map-grid distance from C's centre to the nearest unsafe centre and
+  h the half voxel diagonals. A checker that subtracts |p - c| + h_fine from v(c) (every
+  user here does: `hand_clear`, `ValidityChecker`'s grid bound) then subtracts at least
+  |p - c_C| + h_map from D(C), which is the map grid's own sound bound.
+* inner cells: min(d_in(c), max(b(c) + h_fine, v(c))): d_in the exact distance to the
+  fine unsafe voxels inside the inner box, b(c) the distance from c to the inner box's
+  outside (every unsafe voxel outside the inner box is at least that far), v(c) as above.
+
+The inner unsafe voxels are the map's unsafe voxels split into fine ones, or, with a fine
+local occupancy map integrated from the same depth frames (`fine_unsafe`), its own 5 mm
+labels: a fine voxel seen free is safe, one seen occupied unsafe (unless it is the target's
+or the robot's own space), and an unseen one keeps the map's label.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, prange
+
+from ..errors import CompassInputError
+from ..mapping.distance import DistanceField, _distances
+from ..mapping.occupancy import MapConfig, OccupancyMap, VoxelState
+
+
+def upsample_mask(mask: np.ndarray, u: int) -> np.ndarray:
+    """Each voxel of a 3-D mask split into u^3 voxels of the same value."""
+    return mask.repeat(u, 0).repeat(u, 1).repeat(u, 2)
+
+
+def checked_field(unsafe: np.ndarray, origin: np.ndarray, resolution: float, inner_a: np.ndarray,
+                  inner_b: np.ndarray, upsample: int, fine_unsafe: np.ndarray | None = None,
+                  safe_spheres: tuple[np.ndarray, np.ndarray] | None = None,
+                  more_boxes: tuple = ()) -> DistanceField:
+    """The composite field (module doc) on a grid `upsample` times finer than `unsafe`.
+
+    unsafe (nx, ny, nz) bool on the map grid, its low corner at origin (3,) [m], voxel edge
+    resolution [m]; inner_a / inner_b (3,) map-voxel index range [a, b) of the inner box;
+    fine_unsafe: the inner box's fine unsafe voxels (default: `unsafe` there, split), which
+    must lie in map voxels outside safe_spheres; more_boxes: further (a, b) index ranges
+    computed exactly from `unsafe` split (each overlays the field built so far: its
+    outside is bounded by that field); safe_spheres (centres (S,3), radii (S,) [m]):
+    spheres whose map voxels were all made safe (the robot as it stands): every unsafe
+    map-voxel centre is farther than R from such a sphere's centre, so no fine unsafe
+    centre is nearer than R - |c - c_s| - (h_map - h_fine) to a fine centre c; that bound
+    raises the field where it is larger."""
+    if isinstance(upsample, bool) or not isinstance(upsample, int) or not 1 <= upsample <= 4:
+        raise CompassInputError(f"upsample {upsample!r} is not allowed; use an integer 1..4")
+    shape = np.asarray(unsafe.shape)
+    coarse = DistanceField.from_unsafe(unsafe, origin, resolution).distances
+    fine_res = resolution / upsample
+    out = None
+    for n, (a, b) in enumerate([(inner_a, inner_b)] + list(more_boxes)):
+        a = np.clip(np.asarray(a, dtype=np.int64), 0, shape)
+        b = np.clip(np.asarray(b, dtype=np.int64), a, shape)
+        fu = fine_unsafe if n == 0 else None
+        if fu is None:
+            fu = upsample_mask(unsafe[a[0]:b[0], a[1]:b[1], a[2]:b[2]], upsample)
+        if fu.shape != tuple(upsample * (b - a)):
+            raise CompassInputError(f"fine_unsafe has shape {fu.shape}; the inner box needs "
+                                    f"{tuple(int(x) for x in upsample * (b - a))}")
+        if fu.size and fu.any():
+            d_in = _distances(np.ascontiguousarray(fu), fine_res)
+        else:
+            d_in = np.full(fu.shape, np.inf, np.float32)
+        if out is None:
+            out = _compose(coarse, d_in, a * upsample, upsample, float(resolution))
+        else:
+            _overlay(out, d_in, a * upsample, fine_res)
+    if safe_spheres is not None:
+        h = 0.5 * math.sqrt(3.0) * (resolution - fine_res)
+        _raise_in_spheres(out, np.asarray(origin, dtype=np.float64), fine_res,
+                          np.ascontiguousarray(np.asarray(safe_spheres[0], dtype=np.float64).reshape(-1, 3)),
+                          np.ascontiguousarray(np.asarray(safe_spheres[1], dtype=np.float64).reshape(-1)), h)
+    return DistanceField(out, origin, fine_res)
+
+
+@njit(cache=True, parallel=True)
+def _overlay(out, d_in, ia, fres):
+    """out <- min(d_in, max(b + h_fine, out)) inside the box at fine index ia (module doc)."""
+    h_fine = 0.5 * math.sqrt(3.0) * fres
+    mx, my, mz = d_in.shape
+    for li in prange(mx):
+        for lj in range(my):
+            for lk in range(mz):
+                bnd = min(li + 0.5, mx - li - 0.5, lj + 0.5, my - lj - 0.5, lk + 0.5, mz - lk - 0.5) * fres
+                I, J, K = li + ia[0], lj + ia[1], lk + ia[2]
+                out[I, J, K] = min(d_in[li, lj, lk], max(bnd + h_fine, out[I, J, K]))
+
+
+@njit(cache=True)
+def _raise_in_spheres(out, origin, res, centres, radii, h):
+    nx, ny, nz = out.shape
+    for s in range(centres.shape[0]):
+        R = radii[s]
+        lo0 = max(int(math.floor((centres[s, 0] - R - origin[0]) / res)), 0)
+        lo1 = max(int(math.floor((centres[s, 1] - R - origin[1]) / res)), 0)
+        lo2 = max(int(math.floor((centres[s, 2] - R - origin[2]) / res)), 0)
+        hi0 = min(int(math.ceil((centres[s, 0] + R - origin[0]) / res)), nx - 1)
+        hi1 = min(int(math.ceil((centres[s, 1] + R - origin[1]) / res)), ny - 1)
+        hi2 = min(int(math.ceil((centres[s, 2] + R - origin[2]) / res)), nz - 1)
+        for i in range(lo0, hi0 + 1):
+            dx = origin[0] + (i + 0.5) * res - centres[s, 0]
+            for j in range(lo1, hi1 + 1):
+                dy = origin[1] + (j + 0.5) * res - centres[s, 1]
+                for k in range(lo2, hi2 + 1):
+                    dz = origin[2] + (k + 0.5) * res - centres[s, 2]
+                    v = R - math.sqrt(dx * dx + dy * dy + dz * dz) - h
+                    if v > out[i, j, k]:
+                        out[i, j, k] = v
+
+
+@njit(cache=True, parallel=True)
+def _compose(coarse, d_in, ia, u, res):
+    nx, ny, nz = coarse.shape
+    fres = res / u
+    h_map = 0.5 * math.sqrt(3.0) * res
+    h_fine = 0.5 * math.sqrt(3.0) * fres
+    off = np.empty(u)
+    for t in range(u):
+        off[t] = (((t + 0.5) / u - 0.5) * res) ** 2
+    out = np.empty((nx * u, ny * u, nz * u), np.float32)
+    mx, my, mz = d_in.shape
+    for ci in prange(nx):
+        for cj in range(ny):
+            for ck in range(nz):
+                base = coarse[ci, cj, ck] - h_map + h_fine
+                near = (ci * u + u > ia[0] and ci * u < ia[0] + mx and cj * u + u > ia[1] and cj * u < ia[1] + my
+                        and ck * u + u > ia[2] and ck * u < ia[2] + mz)
+                for ti in range(u):
+                    I = ci * u + ti
+                    for tj in range(u):
+                        J = cj * u + tj
+                        for tk in range(u):
+                            K = ck * u + tk
+                            v = base - math.sqrt(off[ti] + off[tj] + off[tk])
+                            if v < 0.0:
+                                v = 0.0
+                            if near:
+                                li, lj, lk = I - ia[0], J - ia[1], K - ia[2]
+                                if 0 <= li < mx and 0 <= lj < my and 0 <= lk < mz:
+                                    bnd = min(li + 0.5, mx - li - 0.5, lj + 0.5, my - lj - 0.5,
+                                              lk + 0.5, mz - lk - 0.5) * fres
+                                    v = min(d_in[li, lj, lk], max(bnd + h_fine, v))
+                            out[I, J, K] = v
+    return out
+
+
+def local_fine_map(occ: OccupancyMap, lo: np.ndarray, hi: np.ndarray, upsample: int = 2) -> OccupancyMap:
+    """An empty occupancy map `upsample` times finer than `occ` over the box lo..hi (3,) [m],
+    snapped outwards to occ's voxels (so each fine voxel lies in one map voxel), with occ's
+    sensor model. Integrate the same depth frames into it as into occ."""
+    if isinstance(upsample, bool) or not isinstance(upsample, int) or not 1 <= upsample <= 4:
+        raise CompassInputError(f"upsample {upsample!r} is not allowed; use an integer 1..4")
+    res = occ.resolution
+    a = np.clip(occ.world_to_voxel(np.asarray(lo, dtype=np.float64)[None])[0], 0, np.asarray(occ.shape) - 1)
+    b = np.clip(occ.world_to_voxel(np.asarray(hi, dtype=np.float64)[None])[0], 0, np.asarray(occ.shape) - 1) + 1
+    c = occ.config
+    cfg = MapConfig(box_min=tuple(occ.grid_min + a * res), box_max=tuple(occ.grid_min + b * res),
+                    resolution=res / upsample, prob_hit=c.prob_hit, prob_miss=c.prob_miss, clamp_min=c.clamp_min,
+                    clamp_max=c.clamp_max, occupancy_threshold=c.occupancy_threshold,
+                    pixel_stride=c.pixel_stride, ray_grouping=c.ray_grouping)
+    fine = OccupancyMap(cfg)
+    if fine.shape != tuple(upsample * (b - a)) or not np.allclose(fine.grid_min, occ.grid_min + a * res):
+        raise CompassInputError("the fine map's grid does not align with the map's voxels")
+    return fine
+
+
+def fine_map_range(occ: OccupancyMap, fine: OccupancyMap) -> tuple[np.ndarray, np.ndarray, int]:
+    """(a, b, upsample): the map-voxel index range [a, b) a fine map covers and its factor."""
+    u = int(round(occ.resolution / fine.resolution))
+    a = np.rint((fine.grid_min - occ.grid_min) / occ.resolution).astype(np.int64)
+    b = a + np.asarray(fine.shape) // max(u, 1)
+    ok = u >= 1 and abs(occ.resolution / u - fine.resolution) < 1e-9 and np.allclose(occ.grid_min + a * occ.resolution,
+                                                                                        fine.grid_min)
+    if not ok or np.any(np.asarray(fine.shape) != u * (b - a)):
+        raise CompassInputError(f"fine map (resolution {fine.resolution} m at {fine.grid_min}) is not aligned with "
+                                f"the map ({occ.resolution} m at {occ.grid_min}); build it with local_fine_map")
+    return a, b, u
+
+
+def fine_unsafe_labels(state: np.ndarray, coarse_unsafe: np.ndarray, coarse_robot_safe: np.ndarray,
+                       fine_carve: np.ndarray, u: int) -> np.ndarray:
+    """Fine unsafe voxels (module doc) from a fine map's `state` over a box of map voxels
+    (coarse_* masks of that box, fine_carve of the fine box): seen free -> safe; seen occupied -> unsafe unless the
+    target's carve (on the fine map) or the robot's own space (its map voxel marked safe
+    by the robot's spheres or the caller) holds it; unseen -> the map's label (after the
+    carve and the robot's space), unless carved on the fine map."""
+    st = state
+    occ_ = (st == VoxelState.OCCUPIED) & ~fine_carve & ~upsample_mask(coarse_robot_safe, u)
+    unk = (st == VoxelState.UNKNOWN) & ~fine_carve & upsample_mask(coarse_unsafe, u)
+    return occ_ | unk

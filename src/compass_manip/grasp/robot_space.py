@@ -1,0 +1,100 @@
+"""The robot's own space in the map, kept as it moves.
+
+Every configuration the robot passed through is free space (the robot was there), so its
+collision spheres (grown by a margin) are marked safe in the grasp's map. A trial's way
+holds tens of thousands of overlapping spheres; rasterising them all when the grasp is
+selected cost about a second. `RobotSpaceMask` rasterises each executed segment when it
+is executed (`add`), so the selection only reads the mask (`select_grasp(extra_safe=...)`).
+The mask is exactly the one-shot rasterisation of all the configurations' spheres
+(`mapping.distance.unsafe_mask` with those spheres; tested); configurations seen before
+are skipped (bit-identical duplicates only, e.g. the home posture every way starts from).
+The space around the base column (`base_volume`) is the robot's too; it does not depend on
+the configuration, so its mask is computed once per grid (`base_volume_mask`).
+"""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from ..errors import CompassInputError
+from ..mapping.distance import _clear_spheres
+from ..mapping.occupancy import OccupancyMap
+from ..robot.model import Q_MAX, Q_MIN
+from ..robot.spheres import SphereModel
+from .carve import clear_spheres_box
+
+
+class RobotSpaceMask:
+    """Voxels of `occ`'s grid (its shape, origin, resolution) whose centres lie inside the
+    robot's spheres (radii + margin [m]) at any configuration added so far; `mask` (bool,
+    the map's shape), `n_configs` added (duplicates skipped) and `time_s` spent adding."""
+
+    def __init__(self, occ: OccupancyMap, spheres: SphereModel, margin: float = 0.02):
+        if not 0.0 <= margin <= 0.1:
+            raise CompassInputError(f"margin {margin} m is not allowed; use 0..0.1 m")
+        self.grid_min = np.asarray(occ.grid_min, dtype=np.float64)
+        self.resolution = float(occ.resolution)
+        self.spheres, self.margin = spheres, float(margin)
+        self._outside = np.ones(occ.shape, dtype=bool)
+        self._seen: set[bytes] = set()
+        self.n_configs = 0
+        self.time_s = 0.0
+
+    @property
+    def mask(self) -> np.ndarray:
+        return ~self._outside
+
+    def add(self, Q: np.ndarray) -> None:
+        """Mark the spheres of configurations Q (n,7) [rad] (or one (7,)) safe."""
+        t = time.perf_counter()
+        Q = np.asarray(Q, dtype=np.float64).reshape(-1, 7)
+        if not np.all(np.isfinite(Q)):
+            raise CompassInputError("RobotSpaceMask.add needs finite configurations (n, 7) [rad]")
+        new = []
+        for q in Q:
+            key = q.tobytes()
+            if key not in self._seen:
+                self._seen.add(key)
+                new.append(q)
+        if new:
+            Qn = np.asarray(new)
+            c = np.ascontiguousarray(self.spheres.sphere_centers(Qn).reshape(-1, 3))
+            r = np.ascontiguousarray(np.tile(self.spheres.radii + self.margin, len(Qn)))
+            _clear_spheres(self._outside, self.grid_min, self.resolution, c, r)
+            self.n_configs += len(Qn)
+        self.time_s += time.perf_counter() - t
+
+
+def base_volume(spheres: SphereModel, q_ref: np.ndarray, n_q1: int = 36,
+                n_q2: int = 7) -> tuple[np.ndarray, np.ndarray]:
+    """Spheres (centres (S,3) [m], radii (S,) [m]) of the links up to panda_link2 swept over
+    joints 1 and 2: the robot's own space around its base column, which no camera on the
+    wrist sees and nothing else can occupy (it would collide at home already). Links 0-2
+    move with joints 1 and 2 only, so the volume does not depend on q_ref's other joints."""
+    keep = np.isin(spheres.body_index, [spheres.link_names.index(k) for k in ("panda_link0", "panda_link1",
+                                                                               "panda_link2")])
+    q1 = np.linspace(Q_MIN[0], Q_MAX[0], n_q1)
+    q2 = np.linspace(-1.2, 1.2, n_q2)
+    Q = np.repeat(np.asarray(q_ref, dtype=np.float64)[None], n_q1 * n_q2, axis=0)
+    Q[:, 0] = np.repeat(q1, n_q2)
+    Q[:, 1] = np.tile(q2, n_q1)
+    C = spheres.sphere_centers(Q)[:, keep]
+    return C.reshape(-1, 3), np.tile(spheres.radii[keep] + 0.02, len(Q))
+
+
+_BASE_MASKS: dict = {}
+
+
+def base_volume_mask(spheres: SphereModel, occ: OccupancyMap) -> np.ndarray:
+    """`base_volume` as a voxel mask of occ's grid, computed once per sphere model and grid
+    (a constant of the robot: it does not depend on the configuration)."""
+    key = (id(spheres), occ.shape, occ.resolution, occ.grid_min.tobytes())
+    if key not in _BASE_MASKS:
+        c, r = base_volume(spheres, 0.5 * (Q_MIN + Q_MAX))
+        out = np.ones(occ.shape, dtype=bool)
+        clear_spheres_box(out, occ.grid_min, occ.resolution, c, r)
+        if len(_BASE_MASKS) > 8:
+            _BASE_MASKS.clear()
+        _BASE_MASKS[key] = (spheres, ~out)  # the model is kept so its id stays unique
+    return _BASE_MASKS[key][1]

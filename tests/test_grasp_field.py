@@ -1,0 +1,125 @@
+"""The grasp's checked field, the robot's way mask and the fine local map (grasp/field.py,
+grasp/robot_space.py, mapping.distance's sphere rasteriser)."""
+import math
+
+import numpy as np
+import pytest
+
+from compass_manip.errors import CompassInputError
+from compass_manip.grasp.field import checked_field, local_fine_map, upsample_mask
+from compass_manip.grasp.robot_space import RobotSpaceMask
+from compass_manip.mapping.distance import DistanceField, _clear_spheres
+from compass_manip.mapping.occupancy import MapConfig, OccupancyMap, VoxelState
+from compass_manip.robot.spheres import panda_sphere_model
+
+
+def brute_force_clear(shape, grid_min, res, c, r):
+    """Every voxel centre tested against every sphere (the one-by-one rasterisation)."""
+    idx = np.stack(np.meshgrid(*[np.arange(n) for n in shape], indexing="ij"), -1).reshape(-1, 3)
+    p = grid_min + (idx + 0.5) * res
+    inside = np.zeros(len(p), bool)
+    for cc, rr in zip(c, r):
+        d = p - cc
+        inside |= d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1] + d[:, 2] * d[:, 2] <= rr * rr
+    return ~inside.reshape(shape)
+
+
+def test_sphere_rasteriser_equals_brute_force():
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        c = rng.uniform(-0.05, 0.35, (25, 3))
+        r = rng.uniform(0.0, 0.09, 25)
+        c[:5] = np.round(c[:5] / 0.005) * 0.005  # centres and radii on voxel boundaries
+        r[:5] = 0.005 * rng.integers(0, 12, 5)
+        m = np.ones((30, 26, 28), bool)
+        m[rng.random(m.shape) < 0.3] = False  # some voxels already safe
+        want = m & brute_force_clear(m.shape, np.zeros(3), 0.01, c, r)
+        _clear_spheres(m, np.zeros(3), 0.01, c, r)
+        assert np.array_equal(m, want)
+
+
+def test_robot_space_mask_incremental_equals_one_shot():
+    from compass_manip.robot.model import Q_MAX, Q_MIN, RobotConfig
+
+    spheres = panda_sphere_model()
+    occ = OccupancyMap(MapConfig(box_min=(-0.3, -0.4, -0.05), box_max=(0.7, 0.4, 1.0), resolution=0.02))
+    rng = np.random.default_rng(0)
+    home = np.asarray(RobotConfig().q_home)
+    Q = np.vstack([np.clip(home + rng.normal(0, 0.2, 7), Q_MIN, Q_MAX) for _ in range(12)] + [home, home])
+    way = RobotSpaceMask(occ, spheres, 0.02)
+    for part in (Q[:3], Q[3:9], Q[9:]):  # added as the robot moves
+        way.add(part)
+    assert way.n_configs == 13  # the repeated home posture counted once
+    c = spheres.sphere_centers(Q).reshape(-1, 3)
+    r = np.tile(spheres.radii + 0.02, len(Q))
+    want = ~brute_force_clear(occ.shape, occ.grid_min, occ.resolution, c, r)
+    assert want.sum() > 100
+    assert np.array_equal(way.mask, want)
+
+
+def test_checked_field_is_sound_and_exact_inside():
+    rng = np.random.default_rng(1)
+    unsafe = rng.random((24, 22, 20)) < 0.04
+    res, u = 0.01, 2
+    a, b = np.array([6, 6, 5]), np.array([16, 15, 14])
+    f = checked_field(unsafe, np.zeros(3), res, a, b, u)
+    exact = DistanceField.from_unsafe(upsample_mask(unsafe, u), np.zeros(3), res / u).distances
+    assert f.distances.shape == exact.shape
+    # sound: the checker's bound (value at the nearest fine centre - offset - half a fine
+    # diagonal) never exceeds the true distance from a point to the unsafe cubes
+    p = rng.uniform(0.0, [0.24, 0.22, 0.20], (3000, 3))
+    i = np.clip(np.floor(p / (res / u)).astype(int), 0, np.array(f.distances.shape) - 1)
+    centre = (i + 0.5) * res / u
+    bound = f.distances[i[:, 0], i[:, 1], i[:, 2]] - np.linalg.norm(p - centre, axis=1) - 0.5 * math.sqrt(3) * res / u
+    lo = np.argwhere(unsafe) * res
+    gap = np.maximum(np.maximum(lo[None] - p[:, None], p[:, None] - (lo[None] + res)), 0.0)
+    true = np.linalg.norm(gap, axis=2).min(axis=1)
+    assert np.all(bound <= true + 1e-6)
+    # deep inside the inner box the composite field is the exact fine field wherever its
+    # nearest unsafe voxel is inside the box too
+    inner = f.distances[2 * a[0] + 4:2 * b[0] - 4, 2 * a[1] + 4:2 * b[1] - 4, 2 * a[2] + 4:2 * b[2] - 4]
+    ex = exact[2 * a[0] + 4:2 * b[0] - 4, 2 * a[1] + 4:2 * b[1] - 4, 2 * a[2] + 4:2 * b[2] - 4]
+    small = ex <= 0.015
+    assert small.sum() > 50 and np.allclose(inner[small], ex[small])
+    # outside: the map-grid bound carried over (D - |c - c_map| - h_map + h_fine)
+    coarse = DistanceField.from_unsafe(unsafe, np.zeros(3), res).distances
+    v = coarse[0, 0, 0] - 0.25 * res * math.sqrt(3) - 0.5 * math.sqrt(3) * res + 0.5 * math.sqrt(3) * res / u
+    assert f.distances[0, 0, 0] == pytest.approx(max(v, 0.0), abs=1e-6)
+    # the robot's own spheres (their map voxels made safe) raise the field around them, soundly
+    c, R = np.array([[0.05, 0.06, 0.05], [0.2, 0.15, 0.12]]), np.array([0.04, 0.05])
+    cleared = unsafe.copy()
+    _clear_spheres(cleared, np.zeros(3), res, c, R)
+    f2 = checked_field(cleared, np.zeros(3), res, a, b, u, safe_spheres=(c, R))
+    f3 = checked_field(cleared, np.zeros(3), res, a, b, u)
+    assert np.all(f2.distances >= f3.distances) and np.any(f2.distances > f3.distances + 1e-3)
+    bound = f2.distances[i[:, 0], i[:, 1], i[:, 2]] - np.linalg.norm(p - centre, axis=1) - 0.5 * math.sqrt(3) * res / u
+    lo2 = np.argwhere(cleared) * res
+    gap = np.maximum(np.maximum(lo2[None] - p[:, None], p[:, None] - (lo2[None] + res)), 0.0)
+    assert np.all(bound <= np.linalg.norm(gap, axis=2).min(axis=1) + 1e-6)
+    with pytest.raises(CompassInputError, match="fine_unsafe"):
+        checked_field(unsafe, np.zeros(3), res, a, b, u, np.zeros((3, 3, 3), bool))
+
+
+def test_fine_map_integration_hand_computed():
+    """One depth pixel straight down the camera's axis onto a plane 0.3 m away: at 5 mm the
+    fine map marks the voxel holding the hit occupied and the voxels the ray crossed free,
+    aligned with the 1 cm map's voxels."""
+    occ = OccupancyMap(MapConfig(box_min=(0.0, 0.0, 0.0), box_max=(0.4, 0.4, 0.4), resolution=0.01,
+                                 ray_grouping=0))
+    fine = local_fine_map(occ, np.array([0.1, 0.1, 0.0]), np.array([0.3, 0.3, 0.4]), 2)
+    assert fine.resolution == pytest.approx(0.005) and np.allclose(fine.grid_min, [0.1, 0.1, 0.0])
+    assert fine.shape == (42, 42, 80)  # the box snapped outwards to whole map voxels
+    depth = np.full((3, 3), np.nan)
+    depth[1, 1] = 0.3
+    K = np.array([[10.0, 0, 1.0], [0, 10.0, 1.0], [0, 0, 1]])
+    T = np.eye(4)
+    T[:3, :3] = np.diag([1.0, -1.0, -1.0])  # looking down -z
+    T[:3, 3] = [0.2025, 0.2025, 0.3925]
+    fine.integrate(depth, K, T, 1.0)
+    hit = fine.world_to_voxel(np.array([[0.2025, 0.2025, 0.0925]]))[0]
+    assert tuple(hit) == (20, 20, 18)
+    assert fine.state[20, 20, 18] == VoxelState.OCCUPIED
+    assert np.all(fine.state[20, 20, 19:78] == VoxelState.FREE)  # the ray from the camera down to the hit
+    assert fine.state[20, 20, 17] == VoxelState.UNKNOWN and fine.state[21, 20, 30] == VoxelState.UNKNOWN
+    with pytest.raises(CompassInputError, match="upsample"):
+        local_fine_map(occ, np.zeros(3), np.ones(3), 7)
