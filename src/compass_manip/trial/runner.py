@@ -17,12 +17,15 @@ from ..exploration.registry import available_methods, make_method
 from ..perception.buffer import DetectionBuffer
 from ..perception.detector import DETECTORS
 from ..robot.kinematics import PandaKinematics
+from ..robot.spheres import panda_sphere_model
 from ..sim.certify import certified_scene
+from ..sim.grasp_only import near_body_unknown
 from ..sim.levels import check_level
 from ..sim.oracle import OracleSegmentationDetector, detection_is_target, target_surroundings
 from ..sim.world import World
 from .config import GRASP_ABLATION_METHOD, ORACLE_DETECTOR, TrialConfig
 from .grasp_stage import run_grasp_stage
+from .grasp_views import GraspInspector
 from .inspect import plan_inspect_view
 from .machine import MachineOutcome, TrialMachine
 from .metrics import MetricsRecorder
@@ -111,9 +114,14 @@ def run_trial_full(spec: TrialSpec, config: TrialConfig | None = None, progress=
         outward = np.asarray(task.space.outward, float)
         insp_rng = np.random.default_rng(np.random.SeedSequence((spec.seed, spec.level, spec.scene, spec.trial, 12)))
 
-        def inspect(q, points):  # on the method's own map and validity checker
-            return plan_inspect_view(method.world.checker, method.world.kin, method.occupancy, world.camera.K,
-                                     points, outward, q, config.grasp.inspect, insp_rng)
+        if config.grasp.inspect.mode == "grasp":  # the grasp hypotheses' unknown voxels (trial.grasp_views)
+            spheres, q_home = panda_sphere_model(world.robot), np.asarray(world.robot.q_home)
+            near = (lambda occ: near_body_unknown(occ, spheres, q_home)) if config.grasp.near_body_free else None
+            inspect = GraspInspector(method.world, world.camera.K, task, config.grasp, insp_rng, near)
+        else:
+            def inspect(q, detection):  # on the method's own map and validity checker
+                return plan_inspect_view(method.world.checker, method.world.kin, method.occupancy, world.camera.K,
+                                         detection.points_world, outward, q, config.grasp.inspect, insp_rng)
     if config.grasp.enabled:
         grasp_rng = np.random.default_rng(np.random.SeedSequence((spec.seed, spec.level, spec.scene, spec.trial, 11)))
         charge = None if config.clock.measured else config.clock.planning_charge_s
