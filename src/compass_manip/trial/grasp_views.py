@@ -93,11 +93,12 @@ class GraspInspector:
         self.near_body = near_body
         self.last: dict = {}
 
-    def __call__(self, q_current: np.ndarray, detection) -> InspectPlan:
-        t0 = time.perf_counter()
-        wm, config, rng = self.wm, self.config, self.rng
+    def needs(self, q_current: np.ndarray, detection, occ: OccupancyMap | None = None, hyps=None):
+        """(hypotheses, needed voxels per hypothesis) on `occ` (default the method's map);
+        given `hyps`, only their needed voxels are recounted on occ."""
+        wm = self.wm
+        occ = wm.occ if occ is None else occ
         q = np.asarray(q_current, dtype=np.float64)
-        occ = wm.occ
         pts = np.asarray(detection.points_world, dtype=np.float64).reshape(-1, 3)
         target = build_target_model(pts, detection.T_world_cam[:3, 3], self.task.target, occ, self.gc.target)
         cur = wm.spheres.sphere_centers(q[None])[0]
@@ -105,9 +106,17 @@ class GraspInspector:
         safe = (np.vstack([cur, bc]), np.r_[wm.spheres.radii + self.gc.select.robot_clearance, br])
         extra = wm.swept if self.near_body is None else (wm.swept | self.near_body(occ))
         strict = strict_unsafe_mask(occ, target, self.gc.select.clearance, safe, extra)
-        hyps = grasp_hypotheses(target, occ, self.task, q, wm.spheres, self.gc.select, config.hypotheses, rng,
-                                safe, extra, self.ik)
-        needed = needed_voxels(occ, hyps, wm.spheres, strict, config.hypotheses)
+        if hyps is None:
+            hyps = grasp_hypotheses(target, occ, self.task, q, wm.spheres, self.gc.select, self.config.hypotheses,
+                                    self.rng, safe, extra, self.ik)
+        return hyps, needed_voxels(occ, hyps, wm.spheres, strict, self.config.hypotheses)
+
+    def __call__(self, q_current: np.ndarray, detection) -> InspectPlan:
+        t0 = time.perf_counter()
+        wm, config, rng = self.wm, self.config, self.rng
+        q = np.asarray(q_current, dtype=np.float64)
+        occ = wm.occ
+        hyps, needed = self.needs(q, detection)
         counts = [len(n) for n in needed]
         self.last = {"n_hypotheses": len(hyps), "needed": counts}
         if not hyps or min(counts) <= config.done_unknown:
