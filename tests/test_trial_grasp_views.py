@@ -55,7 +55,8 @@ def test_grasp_view_is_valid_all_the_way_and_sees_more_of_the_needed_space_than_
         wm.add_swept(path)
         view = world.render(q_view, rgb=False, seg=True)
         det = SimpleNamespace(points_world=oracle_detection(world, view), T_world_cam=view.T_world_cam)
-        insp = GraspInspector(wm, world.camera.K, task, GraspTrialConfig(), np.random.default_rng(1))
+        gc = GraspTrialConfig()
+        insp = GraspInspector(wm, world.camera.K, task, gc.target, gc.select, gc.inspect, np.random.default_rng(1))
         hyps, needed = insp.needs(q_view, det)
         assert hyps and min(len(n) for n in needed) > 0  # the grasps still need unseen space
         insp.counts0 = [len(n) for n in needed]

@@ -24,6 +24,7 @@ import time
 
 import numpy as np
 
+from ..errors import CompassInputError
 from ..exploration.viewpoints import sample_direction_in_cone, view_pose
 from ..grasp.hypotheses import grasp_hypotheses, needed_voxels, strict_unsafe_mask
 from ..grasp.select import base_volume
@@ -81,14 +82,18 @@ def weighted_gain(occ: OccupancyMap, T_world_cam: np.ndarray, K: np.ndarray, pts
 
 class GraspInspector:
     """The INSPECT step of a trial (module doc), bound to the method's world model `wm`
-    (occ, checker, kin, spheres, swept), the camera intrinsics K (3,3), the Task, the
-    trial's `GraspTrialConfig` and an explicit generator; near_body: voxels the grasp stage
-    takes as free (or None). Call with (q_current (7,) [rad], detection) -> InspectPlan."""
+    (occ, checker, kin, spheres, swept), the camera intrinsics K (3,3), the Task, the grasp
+    stage's `grasp.target.TargetConfig` and `grasp.select.GraspSelectConfig`, the
+    `InspectConfig` and an explicit generator; near_body: `near_body(occ)` -> voxels the
+    grasp stage takes as free (or None). Call with (q_current (7,) [rad], detection) ->
+    InspectPlan."""
 
-    def __init__(self, wm, K: np.ndarray, task, grasp_config, rng: np.random.Generator,
-                 near_body=None) -> None:
-        self.wm, self.K, self.task, self.gc, self.rng = wm, np.asarray(K, dtype=np.float64), task, grasp_config, rng
-        self.config: InspectConfig = grasp_config.inspect
+    def __init__(self, wm, K: np.ndarray, task, target_config, select_config, config: InspectConfig,
+                 rng: np.random.Generator, near_body=None) -> None:
+        if not isinstance(rng, np.random.Generator):
+            raise CompassInputError(f"rng {rng!r:.40} is not allowed; give an explicit np.random.Generator")
+        self.wm, self.K, self.task, self.rng = wm, np.asarray(K, dtype=np.float64), task, rng
+        self.target_config, self.select_config, self.config = target_config, select_config, config
         self.ik = PandaIK(wm.kin)
         self.near_body = near_body
         self.last: dict = {}
@@ -100,14 +105,14 @@ class GraspInspector:
         occ = wm.occ if occ is None else occ
         q = np.asarray(q_current, dtype=np.float64)
         pts = np.asarray(detection.points_world, dtype=np.float64).reshape(-1, 3)
-        target = build_target_model(pts, detection.T_world_cam[:3, 3], self.task.target, occ, self.gc.target)
+        target = build_target_model(pts, detection.T_world_cam[:3, 3], self.task.target, occ, self.target_config)
         cur = wm.spheres.sphere_centers(q[None])[0]
         bc, br = base_volume(wm.spheres, q)
-        safe = (np.vstack([cur, bc]), np.r_[wm.spheres.radii + self.gc.select.robot_clearance, br])
+        safe = (np.vstack([cur, bc]), np.r_[wm.spheres.radii + self.select_config.robot_clearance, br])
         extra = wm.swept if self.near_body is None else (wm.swept | self.near_body(occ))
-        strict = strict_unsafe_mask(occ, target, self.gc.select.clearance, safe, extra)
+        strict = strict_unsafe_mask(occ, target, self.select_config.clearance, safe, extra)
         if hyps is None:
-            hyps = grasp_hypotheses(target, occ, self.task, q, wm.spheres, self.gc.select, self.config.hypotheses,
+            hyps = grasp_hypotheses(target, occ, self.task, q, wm.spheres, self.select_config, self.config.hypotheses,
                                     self.rng, safe, extra, self.ik)
         return hyps, needed_voxels(occ, hyps, wm.spheres, strict, self.config.hypotheses)
 

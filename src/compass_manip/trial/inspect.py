@@ -45,7 +45,7 @@ class InspectConfig:
     a hypothesis needs at most this many unknown voxels; min_fraction of the hypotheses'
     weight a grasp-mode view must see."""
 
-    n_views: int = 4
+    n_views: int = 6
     mode: str = "grasp"
     hypotheses: HypothesisConfig = field(default_factory=HypothesisConfig)
     n_axes: int = 6

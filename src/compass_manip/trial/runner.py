@@ -117,7 +117,8 @@ def run_trial_full(spec: TrialSpec, config: TrialConfig | None = None, progress=
         if config.grasp.inspect.mode == "grasp":  # the grasp hypotheses' unknown voxels (trial.grasp_views)
             spheres, q_home = panda_sphere_model(world.robot), np.asarray(world.robot.q_home)
             near = (lambda occ: near_body_unknown(occ, spheres, q_home)) if config.grasp.near_body_free else None
-            inspect = GraspInspector(method.world, world.camera.K, task, config.grasp, insp_rng, near)
+            inspect = GraspInspector(method.world, world.camera.K, task, config.grasp.target, config.grasp.select,
+                                     config.grasp.inspect, insp_rng, near)
         else:
             def inspect(q, detection):  # on the method's own map and validity checker
                 return plan_inspect_view(method.world.checker, method.world.kin, method.occupancy, world.camera.K,
