@@ -105,10 +105,14 @@ def _near_one(T: np.ndarray, kept: list, config: HypothesisConfig) -> bool:
 def grasp_hypotheses(target: TargetModel, occ: OccupancyMap, task: Task, q_current: np.ndarray,
                      spheres: SphereModel, select_config, config: HypothesisConfig, rng: np.random.Generator,
                      safe_spheres: tuple[np.ndarray, np.ndarray], extra_safe: np.ndarray | None = None,
-                     ik: PandaIK | None = None, proposer: GraspProposer | None = None) -> list[GraspHypothesis]:
+                     ik: PandaIK | None = None, proposer: GraspProposer | None = None,
+                     stats: dict | None = None) -> list[GraspHypothesis]:
     """The best grasps (by score, then the higher grasp point) that pass the selection's
     checks with unknown space taken as free (module doc). select_config: the
-    `select.GraspSelectConfig` whose cone, pre-grasp distances and lift heights apply."""
+    `select.GraspSelectConfig` whose cone, pre-grasp distances and lift heights apply;
+    stats: if a dict, filled with the count of candidates dropped per check (the names of
+    `select.Rejection`, with unknown space free)."""
+    stats = {} if stats is None else stats
     if rng is None:
         raise CompassInputError("grasp_hypotheses needs an explicit np.random.Generator (rng)")
     q_current = np.asarray(q_current, dtype=np.float64)
@@ -126,15 +130,19 @@ def grasp_hypotheses(target: TargetModel, occ: OccupancyMap, task: Task, q_curre
     if len(cands) == 0:
         return []
     idx = np.nonzero(approach_angles(cands, n) <= select_config.max_approach_angle)[0]
+    stats["APPROACH_ANGLE"] = len(cands) - len(idx)
     local = rigid_hand_spheres(spheres)
     T = cands.T_world_tcp[idx]
     ok = hand_clear(checks.fine, T, local, select_config.voxel_extent)
+    stats["HAND_IN_COLLISION"] = int(np.count_nonzero(~ok))
     idx, T = idx[ok], T[ok]
     pre = _first_free(checks.fine, T, local, [(d, -d, 0.0, (1.0, 0.75, 0.5, 0.25))
                                               for d in select_config.pregrasp_distances], select_config.voxel_extent)
     lift = _first_free(checks.fine, T, local, [(h, 0.0, h, [*(np.arange(0.025, h + 1e-9, 0.025) / max(h, 1e-9)), 1.0])
                                                for h in select_config.lift_heights], select_config.voxel_extent)
     keep = ~np.isnan(pre) & ~np.isnan(lift)
+    stats["HAND_APPROACH_BLOCKED"] = int(np.count_nonzero(np.isnan(pre)))
+    stats["HAND_LIFT_BLOCKED"] = int(np.count_nonzero(~np.isnan(pre) & np.isnan(lift)))
     idx, pre, lift = idx[keep], pre[keep], lift[keep]
     order = np.lexsort((-cands.T_world_tcp[idx, 2, 3], -cands.score[idx]))
     lift_clear = {h: checks.held_target_clear(h) for h in select_config.lift_heights}
@@ -142,7 +150,9 @@ def grasp_hypotheses(target: TargetModel, occ: OccupancyMap, task: Task, q_curre
     for k in order[: config.max_checked]:
         i = idx[k]
         qs, why = checks.check(cands.T_world_tcp[i], q_current, pre[k], lift[k], lift_clear[lift[k]])
-        if why is None and not _near_one(cands.T_world_tcp[i], out, config):
+        if why is not None:
+            stats[why] = stats.get(why, 0) + 1
+        elif not _near_one(cands.T_world_tcp[i], out, config):
             out.append(GraspHypothesis(cands.T_world_tcp[i].copy(), float(cands.score[i]), *map(np.asarray, qs),
                                        float(pre[k]), float(lift[k])))
             if len(out) >= config.n_hypotheses:

@@ -96,7 +96,8 @@ class GraspInspector:
         self.target_config, self.select_config, self.config = target_config, select_config, config
         self.ik = PandaIK(wm.kin)
         self.near_body = near_body
-        self.last: dict = {}
+        self.last: dict = {}  # what the last step saw (hypotheses, needed voxels, views), for diagnosis
+        self.stats: dict = {}
 
     def needs(self, q_current: np.ndarray, detection, occ: OccupancyMap | None = None, hyps=None):
         """(hypotheses, needed voxels per hypothesis) on `occ` (default the method's map);
@@ -112,8 +113,9 @@ class GraspInspector:
         extra = wm.swept if self.near_body is None else (wm.swept | self.near_body(occ))
         strict = strict_unsafe_mask(occ, target, self.select_config.clearance, safe, extra)
         if hyps is None:
+            self.stats = {}
             hyps = grasp_hypotheses(target, occ, self.task, q, wm.spheres, self.select_config, self.config.hypotheses,
-                                    self.rng, safe, extra, self.ik)
+                                    self.rng, safe, extra, self.ik, stats=self.stats)
         return hyps, needed_voxels(occ, hyps, wm.spheres, strict, self.config.hypotheses)
 
     def __call__(self, q_current: np.ndarray, detection) -> InspectPlan:
@@ -123,7 +125,7 @@ class GraspInspector:
         occ = wm.occ
         hyps, needed = self.needs(q, detection)
         counts = [len(n) for n in needed]
-        self.last = {"n_hypotheses": len(hyps), "needed": counts}
+        self.last = {"n_hypotheses": len(hyps), "needed": counts, "optimistic_rejections": dict(self.stats)}
         if not hyps or min(counts) <= config.done_unknown:
             return InspectPlan(None, 0, 0, time.perf_counter() - t0, planned=False)
         w_h = np.array([h.score for h in hyps])  # each hypothesis weighs its score, spread over its voxels
