@@ -14,7 +14,10 @@ from compass_manip.sim.grasp_only import GraspOnlyConfig, oracle_detection, orac
 from compass_manip.sim.scenes import CabinetSpec, Primitive, SceneSpec
 from compass_manip.sim.world import World
 from compass_manip.trial.config import GraspTrialConfig
+from compass_manip.mapping.occupancy import VoxelState
+from compass_manip.trial.grasp_map import GraspMap
 from compass_manip.trial.grasp_views import GraspInspector, view_candidates
+from compass_manip.types import Trajectory
 from compass_manip.trial.inspect import InspectConfig
 
 
@@ -80,5 +83,29 @@ def test_grasp_view_is_valid_all_the_way_and_sees_more_of_the_needed_space_than_
         random_views = [after(q) for q in near]
         before = _remaining(insp, q_view, det, hyps, wm.occ)
         assert chosen < before and chosen < np.median(random_views)
+    finally:
+        world.close()
+
+
+def test_grasp_map_integrates_frames_at_1cm_and_marks_the_way_but_not_seen_obstacles():
+    cab = CabinetSpec((0.45, -0.3, 0.30), (0.80, 0.3, 0.80))
+    target = Primitive("target", "box", (0.02, 0.02, 0.06), (0.60, 0.0, 0.36), 0.2, (0.9, 0.05, 0.05, 1.0), True, 0.08)
+    world = World(SceneSpec(level=1, index=0, seed=(0,), cabinet=cab, target=target))
+    try:
+        gm = GraspMap(world.robot)
+        assert gm.occ.resolution == 0.01
+        q_home = np.asarray(world.robot.q_home)
+        gm.start(world, None)
+        gm.frame(world.render(q_home, rgb=False, seg=False), None)
+        occ = gm.occ
+        assert (occ.state == VoxelState.OCCUPIED).sum() > 100 and (occ.state == VoxelState.FREE).sum() > 1000
+        q1 = q_home + np.r_[0.3, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]
+        gm.motion(Trajectory(np.array([0.0, 1.0]), np.stack([q_home, q1])), 0.0, 1.0)
+        mid = gm.spheres.sphere_centers(((q_home + q1) / 2)[None])[0]  # a configuration on the way
+        v = occ.world_to_voxel(mid)
+        assert gm.swept_all[v[:, 0], v[:, 1], v[:, 2]].all()
+        occ.state[v[0, 0], v[0, 1], v[0, 2]] = VoxelState.OCCUPIED  # seen occupied later: not the robot's
+        assert not gm.swept[v[0, 0], v[0, 1], v[0, 2]] and gm.swept[v[1, 0], v[1, 1], v[1, 2]] == \
+            (occ.state[v[1, 0], v[1, 1], v[1, 2]] != VoxelState.OCCUPIED)
     finally:
         world.close()
