@@ -3,7 +3,7 @@
 Per scene (level L, index i, seed 0): the grasp-only harness (`sim.grasp_only`: oracle start
 view and oracle segmentation detection, map from depth, `grasp.select.select_grasp`,
 physics grasp-and-lift with `sim.grasp_exec`) runs once with the paper's constraints and
-once without. Prints JSON lines (grasp.*) and, with --out, one JSON line per trial.
+once without (each after the trial's grasp-aware INSPECT views, `--inspect-views 0`: none). Prints JSON lines (grasp.*) and, with --out, one JSON line per trial.
 
 Run: `.venv/bin/python benchmarks/bench_grasp.py [--count N] [--levels 1 2 3 4] [--out f.jsonl]`.
 `make bench` runs the default: scene indices 0-1 of each level (8 scenes), constraints on
@@ -28,6 +28,7 @@ from compass_manip.bench.stats import emit_samples, emit_value, load_average
 from compass_manip.grasp.select import GraspSelectConfig
 from compass_manip.sim.certify import certified_scene
 from compass_manip.sim.grasp_only import GraspOnlyConfig, run_grasp_only
+from compass_manip.trial.inspect import InspectConfig
 
 
 def trial_record(level: int, index: int, constrained: bool, r, wall: float) -> dict:
@@ -43,14 +44,18 @@ def main() -> int:
     ap.add_argument("--out", default=None, help="append one JSON line per trial to this file")
     ap.add_argument("--variants", default="on,off", help="on, off or on,off")
     ap.add_argument("--no-fine-map", action="store_true", help="check near the target on the 1 cm map only")
+    ap.add_argument("--inspect-views", type=int, default=None,
+                    help="grasp-aware INSPECT views before the selection (default: InspectConfig's; 0: off)")
     args = ap.parse_args()
+    inspect = InspectConfig() if args.inspect_views is None else InspectConfig(n_views=args.inspect_views)
     variants = [v == "on" for v in args.variants.split(",")]
     recs = []
     for level in args.levels:
         for index in range(args.start, args.start + args.count):
             scene = certified_scene(level, index, args.seed).scene
             for constrained in variants:
-                config = GraspOnlyConfig(select=GraspSelectConfig(constrained=constrained), fine_map=not args.no_fine_map)
+                config = GraspOnlyConfig(select=GraspSelectConfig(constrained=constrained), fine_map=not args.no_fine_map,
+                                         inspect=inspect)
                 t0 = time.perf_counter()
                 r = run_grasp_only(scene, config, seed=args.seed)
                 rec = trial_record(level, index, constrained, r, time.perf_counter() - t0)

@@ -102,8 +102,8 @@ def test_machine_inspects_between_found_and_grasp_and_counts_the_plans():
     metrics = SimpleNamespace(collisions=0, explored_fraction=lambda t, occ: None, plans_attempted=0,
                               plans_succeeded=0)
 
-    def inspect(q, points):
-        calls.append(points.shape)
+    def inspect(q, detection):
+        calls.append(detection.points_world.shape)
         order.append("inspect")
         return InspectPlan(None, 0, 0, 0.3)
 
@@ -117,3 +117,26 @@ def test_machine_inspects_between_found_and_grasp_and_counts_the_plans():
     assert order == ["inspect", "grasp"] and calls == [(20, 3)]  # an unplannable view ends INSPECT
     assert metrics.plans_attempted == 1 and metrics.plans_succeeded == 0 and out.n_inspected == 0
     assert out.t_end == pytest.approx(0.1 + 2.0)  # the fixed planning charge, then the grasp
+
+
+def test_machine_charges_but_does_not_count_an_inspect_step_that_plans_nothing():
+    world = SimpleNamespace(q=np.zeros(7), render=lambda q, t=0.0, rgb=True, seg=False: SimpleNamespace(
+        T_world_cam=np.eye(4), observation=lambda: None))
+    method = SimpleNamespace(observe=lambda obs: None, occupancy=None, add_points_of_interest=lambda pts: None)
+    det = SimpleNamespace(t=1.5, points_world=np.ones((20, 3)), T_world_cam=np.eye(4))
+    buffer = SimpleNamespace(push=lambda f: None, sync=lambda: None, take_hints=lambda: np.zeros((0, 3)),
+                             best=lambda: SimpleNamespace(detection=det))
+    metrics = SimpleNamespace(collisions=0, explored_fraction=lambda t, occ: None, plans_attempted=0,
+                              plans_succeeded=0)
+    calls = []
+
+    def inspect(q, detection):  # e.g. a grasp hypothesis already needs no unknown voxel
+        calls.append(q)
+        return InspectPlan(None, 0, 0, 0.3, planned=False)
+
+    def grasp(q, detection, moved):
+        return GraspStageResult(None, 2.0, None, None, q, 0)
+
+    out = TrialMachine(world, method, buffer, metrics, TrialConfig(), grasp=grasp, inspect=inspect, n_inspect=3).run()
+    assert len(calls) == 1 and metrics.plans_attempted == 0 and metrics.plans_succeeded == 0
+    assert out.t_end == pytest.approx(0.1 + 2.0) and out.n_inspected == 0

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -27,10 +28,14 @@ from ..grasp.target import TargetModel, backproject, build_target_model, TargetC
 from ..mapping.observe import integrate_observation
 from ..mapping.distance import unsafe_mask
 from ..mapping.occupancy import MapConfig, OccupancyMap, VoxelState
+from ..motion.timing import densify
 from ..robot.ik import ik_camera
 from ..robot.model import GRIPPER_MAX_WIDTH, Q_MAX, Q_MIN
 from ..robot.spheres import panda_sphere_model
+from ..trial.grasp_views import GraspInspector
+from ..trial.inspect import InspectConfig
 from .grasp_exec import GraspExecConfig, GraspOutcome, execute_grasp
+from .grasp_inspect import HarnessModel, inspect_views
 from .scenes import SceneSpec
 from .world import World
 
@@ -44,9 +49,11 @@ class GraspOnlyConfig:
     from home) feed the map too, standing in for the views an exploration of the opening
     makes before it sees the target (their ways are marked as robot space); carve_margin [m] added to the
     robot's spheres along the way it moved (marked safe in the map as it moves, `RobotSpaceMask`);
-    fine_map: the same depth frames also integrated at field_upsample x the map's resolution in a
-    box fine_margin [m] around the target's points (`grasp.field.local_fine_map`), the grasp's
-    hand checks near the target use its labels."""
+    fine_map: the same depth frames (the INSPECT views' included) also integrated at
+    field_upsample x the map's resolution in a box fine_margin [m] around the target's points
+    (`grasp.field.local_fine_map`), the grasp's hand checks near the target use its labels;
+    inspect: the trial's grasp-aware INSPECT views before the selection (`sim.grasp_inspect`;
+    n_views=0: off)."""
 
     n_view_samples: int = 80
     view_distance: tuple[float, float] = (0.25, 0.5)
@@ -64,6 +71,7 @@ class GraspOnlyConfig:
     target: TargetConfig = field(default_factory=TargetConfig)
     select: GraspSelectConfig = field(default_factory=GraspSelectConfig)
     execute: GraspExecConfig = field(default_factory=GraspExecConfig)
+    inspect: InspectConfig = field(default_factory=InspectConfig)
 
 
 @dataclass(frozen=True, eq=False)
@@ -71,7 +79,8 @@ class GraspOnlyResult:
     """q_view the oracle start (None: no view found); visibility of the target from it;
     n_target_points detected; selection and outcome (None when not reached); map_time_s (way_mask_s
     of it marking the robot's way, as it moved), fine_map_s the fine local map's integration,
-    success (lifted, held, no collision)."""
+    success (lifted, held, no collision); n_inspected INSPECT views reached and
+    inspect_contacts (ground-truth contacts on their way, which end the trial)."""
 
     q_view: np.ndarray | None
     visibility: float
@@ -82,10 +91,12 @@ class GraspOnlyResult:
     map_time_s: float
     way_mask_s: float = 0.0
     fine_map_s: float = 0.0
+    n_inspected: int = 0
+    inspect_contacts: tuple = ()
 
     @property
     def success(self) -> bool:
-        return self.outcome is not None and self.outcome.success
+        return self.outcome is not None and self.outcome.success and not self.inspect_contacts
 
     def to_dict(self) -> dict:
         """A JSON-able record (the start is labelled: the oracle picked it)."""
@@ -104,7 +115,9 @@ class GraspOnlyResult:
             "rejections": None if s is None else {k.name: v for k, v in s.rejections.items()},
             "select_time_s": None if s is None else round(s.time_s, 4),
             "plan_time_s": None if s is None else round(s.plan_time_s, 4),
-            "collisions": [] if o is None else [f"{c.phase}:{c.robot_geom}->{c.other_geom}" for c in o.collisions],
+            "collisions": [f"inspect:{c}" for c in self.inspect_contacts]
+            + ([] if o is None else [f"{c.phase}:{c.robot_geom}->{c.other_geom}" for c in o.collisions]),
+            "n_inspected": self.n_inspected,
             "lift_height": None if o is None else round(o.lift_height, 4),
             "hold_height": None if o is None else round(o.hold_height, 4),
             "map_time_s": round(self.map_time_s, 3), "way_mask_s": round(self.way_mask_s, 3),
@@ -224,8 +237,11 @@ def run_grasp_only(scene: SceneSpec, config: GraspOnlyConfig | None = None, seed
         occ = OccupancyMap(MapConfig())
         way = RobotSpaceMask(occ, spheres, config.carve_margin)  # the robot's own space, kept as it moves
 
+        moved: list = []  # every configuration the robot passed through (the INSPECT model's swept space)
+
         def went(qs):
             way.add(np.asarray(qs))
+            moved.extend(np.asarray(qs))
 
         went([q_home])
         frames = [world.render(q_home, rgb=False, seg=False)]
@@ -261,6 +277,22 @@ def run_grasp_only(scene: SceneSpec, config: GraspOnlyConfig | None = None, seed
         if len(points) < 10:
             return GraspOnlyResult(q_view, vis, len(points), None, None, None, map_time)
         task = scene.task()
+        q_sel, n_insp = q_view, 0
+        if config.inspect.n_views > 0:  # the trial's grasp-aware INSPECT, on this map
+            model = HarnessModel(occ, spheres, world.robot, task)
+            model.add_swept(np.asarray(moved))
+            near = (lambda o: near_body_unknown(o, spheres, q_home)) if config.near_body_free else None
+            inspector = GraspInspector(model, world.camera.K, task, config.target, config.select, config.inspect,
+                                       rng, near)
+            det = SimpleNamespace(points_world=points, T_world_cam=view.T_world_cam)
+            insp = inspect_views(world, model, inspector, q_view, det, config.inspect.n_views)
+            if insp.contacts:
+                return GraspOnlyResult(q_view, vis, len(points), None, None, None, map_time, way.time_s, 0.0,
+                                       insp.n_views, tuple(f"{c.robot_geom}->{c.other_geom}" for c in insp.contacts))
+            q_sel, n_insp = insp.q_end, insp.n_views
+            for p in insp.paths:
+                went(densify(np.asarray(p), 0.05))
+            frames += list(insp.frames)
         target = build_target_model(points, view.T_world_cam[:3, 3], task.target, occ, config.target)
         extra = way.mask
         if config.near_body_free:
@@ -273,10 +305,10 @@ def run_grasp_only(scene: SceneSpec, config: GraspOnlyConfig | None = None, seed
             for f in frames:
                 integrate_observation(fine, f, spheres, world.camera.depth_max)
             fine_time = time.perf_counter() - t1
-        sel = select_grasp(target, occ, task, q_view, spheres, config.select, rng, extra_safe=extra, fine_map=fine)
-        world.set_q(q_view, GRIPPER_MAX_WIDTH)
-        outcome = execute_grasp(world, sel, q_view, config.execute)
-        return GraspOnlyResult(q_view, vis, len(points), target, sel, outcome, map_time, way.time_s, fine_time)
+        sel = select_grasp(target, occ, task, q_sel, spheres, config.select, rng, extra_safe=extra, fine_map=fine)
+        world.set_q(q_sel, GRIPPER_MAX_WIDTH)
+        outcome = execute_grasp(world, sel, q_sel, config.execute)
+        return GraspOnlyResult(q_view, vis, len(points), target, sel, outcome, map_time, way.time_s, fine_time, n_insp)
     finally:
         if own:
             world.close()

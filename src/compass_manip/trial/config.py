@@ -62,7 +62,9 @@ class GraspTrialConfig:
     near_body_free: unknown voxels the arm's links 0-4 sweep near home count as free (an
     assumption: a wrist camera never sees the space its own elbow moves through);
     inspect: the INSPECT views between FOUND and GRASP (`trial.inspect.InspectConfig`;
-    n_views=0: off): views near the current configuration that see the hand's way in."""
+    n_views=0: off): views chosen for the unknown space the grasp hypotheses need
+    (`trial.grasp_views`); grasp_map: GRASP and INSPECT use a 1 cm map of every depth frame
+    (`trial.grasp_map`) instead of the method's (2 cm for the exploration methods)."""
 
     enabled: bool = True
     target: TargetConfig = field(default_factory=TargetConfig)
@@ -72,6 +74,7 @@ class GraspTrialConfig:
     max_moved_configs: int = 400
     near_body_free: bool = True
     inspect: InspectConfig = field(default_factory=InspectConfig)
+    grasp_map: bool = False
 
     def __post_init__(self) -> None:
         if not 0.0 <= self.moved_margin <= 0.1 or not 1 <= self.max_moved_configs <= 100000:

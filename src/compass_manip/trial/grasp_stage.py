@@ -4,7 +4,9 @@ The target model is built from the accepted detection's points (seen from its ca
 with the method's own map; the grasp is selected against that map (`grasp.select`, the
 paper's Eq. 6, or its ablation) with the robot's executed way marked as its own space (and,
 with `near_body_free`, the unknown space the arm's links 0-4 sweep near home, the harness's
-stand-in for a near-field scan: `sim.grasp_only.near_body_unknown`); the
+stand-in for a near-field scan: `sim.grasp_only.near_body_unknown`); voxels seen occupied
+stay unsafe on the executed way too (marking the way's spheres safe outright let a grasp
+approach through the cabinet's face frame that an INSPECT motion had passed within 2 cm of); the
 selection is executed in the World's physics (`sim.grasp_exec`). Nothing here reads ground
 truth: the physics decides whether the lift worked, as the real robot's sensors would.
 The simulated clock advances by the selection (the trial's planning charge, or the measured
@@ -18,7 +20,9 @@ import numpy as np
 
 from ..errors import CompassInputError
 from ..grasp.select import GraspFailure, GraspSelection, select_grasp
+from ..exploration.world_model import mark_spheres
 from ..grasp.target import build_target_model
+from ..mapping.occupancy import VoxelState
 from ..robot.spheres import panda_sphere_model
 from ..sim.grasp_exec import ExecFailure, GraspOutcome, execute_grasp
 from ..sim.grasp_only import near_body_unknown
@@ -80,15 +84,17 @@ def run_grasp_stage(world, occupancy, detection, task, q_current: np.ndarray, mo
         return GraspStageResult(TrialFailure.GRASP_NO_CANDIDATE, 0.0, None, None, q_current, 0)
     target = build_target_model(points, detection.T_world_cam[:3, 3], task.target, occupancy, config.target)
     spheres = panda_sphere_model(world.robot)
-    if moved:
+    extra = np.zeros(occupancy.shape, bool)
+    if moved:  # the robot's way is its own space, except where a voxel was seen occupied since
         Q = np.vstack([np.asarray(p, dtype=np.float64).reshape(-1, 7) for p in moved])
         Q = Q[:: max(1, len(Q) // config.max_moved_configs)]
-        safe = (spheres.sphere_centers(Q).reshape(-1, 3), np.tile(spheres.radii + config.moved_margin, len(Q)))
-    else:
-        safe = None
-    extra = near_body_unknown(occupancy, spheres, np.asarray(world.robot.q_home)) if config.near_body_free else None
-    sel = select_grasp(target, occupancy, task, q_current, spheres, config.select, rng, safe_spheres=safe,
-                       extra_safe=extra)
+        C = np.ascontiguousarray(spheres.sphere_centers(Q).reshape(-1, 3))
+        mark_spheres(extra, occupancy.grid_min, occupancy.resolution, C, np.tile(spheres.radii + config.moved_margin,
+                                                                                 len(Q)))
+        extra &= occupancy.state != VoxelState.OCCUPIED
+    if config.near_body_free:
+        extra |= near_body_unknown(occupancy, spheres, np.asarray(world.robot.q_home))
+    sel = select_grasp(target, occupancy, task, q_current, spheres, config.select, rng, extra_safe=extra)
     charge = sel.time_s if planning_charge_s is None else planning_charge_s
     if sel.failure is not None:
         return GraspStageResult(_SELECT_FAILURE[sel.failure], charge, sel, None, q_current, 0)

@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import CompassInputError
+from ..grasp.hypotheses import HypothesisConfig
 from ..mapping.occupancy import OccupancyMap, VoxelState
 from ..motion.planner import PlannerConfig, plan
 from ..robot.model import Q_MAX, Q_MIN
@@ -33,9 +34,29 @@ class InspectConfig:
     of the corridor box; max_range [m] of a counted voxel from the camera; n_goals best
     views handed to the planner; min_gain unknown corridor voxels a view must see;
     occlusion: the n_occlusion best views by frustum count are re-scored by the corridor
-    voxels (n_rays of them sampled) they see without a voxel seen occupied in the way."""
+    voxels (n_rays of them sampled) they see without a voxel seen occupied in the way.
+    mode: "grasp" (`trial.grasp_views`: views chosen for the unknown voxels the grasp
+    hypotheses' arms need; n_samples / sigma / wrist_sigma then add configurations near
+    the current one to the camera-IK views) or "corridor" (this module: the corridor box);
+    hypotheses: their `grasp.hypotheses.HypothesisConfig`; n_axes hypotheses (best score
+    first) each get n_per_axis camera poses within axis_cone [rad] of their approach, and
+    n_around look at all needed voxels from within around_cone [rad] of the mean approach,
+    backed off view_distance [m]; n_q7 camera IK samples; done_unknown: INSPECT stops when
+    a hypothesis needs at most this many unknown voxels; min_fraction of the hypotheses'
+    weight a grasp-mode view must see."""
 
-    n_views: int = 3
+    n_views: int = 6
+    mode: str = "grasp"
+    hypotheses: HypothesisConfig = field(default_factory=HypothesisConfig)
+    n_axes: int = 6
+    n_per_axis: int = 8
+    axis_cone: float = 0.5
+    n_around: int = 24
+    around_cone: float = 0.9
+    view_distance: tuple[float, float] = (0.25, 0.5)
+    n_q7: int = 4
+    done_unknown: int = 0
+    min_fraction: float = 0.02
     n_samples: int = 300
     sigma: float = 0.12
     wrist_sigma: float = 0.5
@@ -56,7 +77,17 @@ class InspectConfig:
         if not 1 <= self.n_samples <= 10000 or not 1 <= self.n_goals <= 100 or self.min_gain < 0:
             raise CompassInputError(f"n_samples {self.n_samples} / n_goals {self.n_goals} / min_gain "
                                     f"{self.min_gain} not allowed; use 1..10000, 1..100 and >= 0")
-        for name in ("sigma", "wrist_sigma", "corridor", "side", "above", "max_range"):
+        if self.mode not in ("grasp", "corridor"):
+            raise CompassInputError(f"mode {self.mode!r} is not allowed; use 'grasp' or 'corridor'")
+        lo, hi = self.view_distance
+        if not 0.1 <= lo <= hi <= 1.0 or not 0 <= self.n_axes <= 100 or not 0 <= self.n_per_axis <= 100 \
+                or not 0 <= self.n_around <= 1000 or not 1 <= self.n_q7 <= 100 or self.done_unknown < 0:
+            raise CompassInputError(f"view_distance {self.view_distance} m / n_axes {self.n_axes} / n_per_axis "
+                                    f"{self.n_per_axis} / n_around {self.n_around} / n_q7 {self.n_q7} / done_unknown "
+                                    f"{self.done_unknown} not allowed; use 0.1 <= lo <= hi <= 1 m, 0..100, 0..100, "
+                                    "0..1000, 1..100, >= 0")
+        for name in ("sigma", "wrist_sigma", "corridor", "side", "above", "max_range", "axis_cone", "around_cone",
+                     "min_fraction"):
             if not 0.0 <= getattr(self, name) <= 2.0:
                 raise CompassInputError(f"{name} {getattr(self, name)} is not allowed; use 0..2")
 
@@ -64,12 +95,14 @@ class InspectConfig:
 @dataclass(frozen=True, eq=False)
 class InspectPlan:
     """path (m,7) [rad] to the chosen view or None; gain: unknown corridor voxels in its
-    frustum; n_valid sampled configurations valid for the checker; plan_time_s [s]."""
+    frustum; n_valid sampled configurations valid for the checker; plan_time_s [s];
+    planned: the planner was called (False: INSPECT stopped with nothing left to plan for)."""
 
     path: np.ndarray | None
     gain: int
     n_valid: int
     plan_time_s: float
+    planned: bool = True
 
 
 def corridor_unknown(occ: OccupancyMap, points: np.ndarray, outward: np.ndarray,
@@ -141,7 +174,7 @@ def plan_inspect_view(checker, kin, occ: OccupancyMap, K: np.ndarray, points: np
     q_current = np.asarray(q_current, dtype=np.float64)
     target = corridor_unknown(occ, np.asarray(points, dtype=np.float64).reshape(-1, 3), outward, config)
     if len(target) < config.min_gain or not checker.is_valid(q_current):
-        return InspectPlan(None, 0, 0, time.perf_counter() - t0)
+        return InspectPlan(None, 0, 0, time.perf_counter() - t0, planned=False)
     scale = np.r_[np.full(4, config.sigma), np.full(3, config.wrist_sigma)]
     Q = np.clip(q_current + rng.normal(0.0, 1.0, (config.n_samples, 7)) * scale, Q_MIN + 1e-3, Q_MAX - 1e-3)
     Q = Q[np.asarray(checker.are_valid(Q), dtype=bool)]
@@ -158,7 +191,7 @@ def plan_inspect_view(checker, kin, occ: OccupancyMap, K: np.ndarray, points: np
     order = np.argsort(-gain, kind="stable")
     order = order[gain[order] >= config.min_gain][: config.n_goals]
     if len(order) == 0:
-        return InspectPlan(None, 0, len(Q), time.perf_counter() - t0)
+        return InspectPlan(None, 0, len(Q), time.perf_counter() - t0, planned=False)
     res = plan(q_current, Q[order], checker, config.planner, rng)
     if not res.success:
         return InspectPlan(None, 0, len(Q), time.perf_counter() - t0)

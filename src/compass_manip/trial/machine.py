@@ -69,8 +69,8 @@ class TrialMachine:
     whole frames (with labels) to the buffer, for the oracle detector only. grasp: the GRASP
     state, `grasp(q_current, detection, executed_paths) -> GraspStageResult`, or None for a
     find-only trial. inspect: the INSPECT
-    state before GRASP, `inspect(q_current, target_points) -> trial.inspect.InspectPlan`,
-    called up to n_inspect times (None: no INSPECT). `observer`: a `trial.observer.TrialObserver` told of every event
+    state before GRASP, `inspect(q_current, detection) -> trial.inspect.InspectPlan`,
+    called up to n_inspect times while the time limit allows (None: no INSPECT). `observer`: a `trial.observer.TrialObserver` told of every event
     (read-only; video, Rerun)."""
 
     def __init__(self, world, method, buffer, metrics, config, progress=None, pass_frames: bool = False,
@@ -161,17 +161,22 @@ class TrialMachine:
 
     def _inspect(self, detection, ex_cfg, render_seg) -> TrialFailure | None:
         """INSPECT: up to n_inspect planned views of the hand's way in to the detected
-        target (`trial.inspect`), executed like the exploration's: each plan counts in MPSR,
-        its charge and motion advance the clock, its frames feed the method's map. A view
-        that cannot be planned ends the inspection (the grasp is still tried); a contact on
+        target (`trial.inspect`, `trial.grasp_views`), executed like the exploration's: each
+        plan counts in MPSR, its charge and motion advance the clock, its frames feed the
+        method's map. A step that plans nothing (charged, not counted) or a view that cannot
+        be planned ends the inspection (the grasp is still tried); a contact on
         the way ends the trial (COLLISION)."""
         config = self.config
         pts = np.asarray(detection.points_world, dtype=np.float64).reshape(-1, 3)
         for _ in range(self.n_inspect if len(pts) else 0):
+            if self.t >= config.time_limit_s:
+                break
             self._enter(TrialState.INSPECT)
-            p = self.inspect(self.world.q, pts)
-            self.metrics.plans_attempted += 1
+            p = self.inspect(self.world.q, detection)
             self.t += p.plan_time_s if config.clock.measured else config.clock.planning_charge_s
+            if not p.planned:  # nothing left to look at (or no view sees it): no plan was made
+                break
+            self.metrics.plans_attempted += 1
             if p.path is None:
                 break
             self.metrics.plans_succeeded += 1

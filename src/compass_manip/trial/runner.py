@@ -17,15 +17,20 @@ from ..exploration.registry import available_methods, make_method
 from ..perception.buffer import DetectionBuffer
 from ..perception.detector import DETECTORS
 from ..robot.kinematics import PandaKinematics
+from ..robot.spheres import panda_sphere_model
 from ..sim.certify import certified_scene
+from ..sim.grasp_only import near_body_unknown
 from ..sim.levels import check_level
 from ..sim.oracle import OracleSegmentationDetector, detection_is_target, target_surroundings
 from ..sim.world import World
 from .config import GRASP_ABLATION_METHOD, ORACLE_DETECTOR, TrialConfig
 from .grasp_stage import run_grasp_stage
+from .grasp_map import GraspMap, GraspWorld
+from .grasp_views import GraspInspector
 from .inspect import plan_inspect_view
 from .machine import MachineOutcome, TrialMachine
 from .metrics import MetricsRecorder
+from .observer import ObserverGroup
 from .oracle_method import ORACLE_METHOD, make_oracle_method
 from .result import TrialFailure, TrialResult
 
@@ -107,22 +112,32 @@ def run_trial_full(spec: TrialSpec, config: TrialConfig | None = None, progress=
     metrics = MetricsRecorder(PandaKinematics(world.robot), target_surroundings(scene, config.surroundings_margin))
     grasp, inspect = None, None
     own = getattr(getattr(method, "world", None), "kin", None)  # methods with their own world model
+    gmap = GraspMap(world.robot) if config.grasp.enabled and config.grasp.grasp_map else None
+    grasp_occ = method.occupancy if gmap is None else gmap.occ  # read at GRASP: filled by every frame
+    observers = observer if gmap is None else ObserverGroup([gmap] + ([observer] if observer is not None else []))
     if config.grasp.enabled and config.grasp.inspect.n_views > 0 and own is not None:
         outward = np.asarray(task.space.outward, float)
         insp_rng = np.random.default_rng(np.random.SeedSequence((spec.seed, spec.level, spec.scene, spec.trial, 12)))
 
-        def inspect(q, points):  # on the method's own map and validity checker
-            return plan_inspect_view(method.world.checker, method.world.kin, method.occupancy, world.camera.K,
-                                     points, outward, q, config.grasp.inspect, insp_rng)
+        if config.grasp.inspect.mode == "grasp":  # the grasp hypotheses' unknown voxels (trial.grasp_views)
+            spheres, q_home = panda_sphere_model(world.robot), np.asarray(world.robot.q_home)
+            near = (lambda occ: near_body_unknown(occ, spheres, q_home)) if config.grasp.near_body_free else None
+            wm = method.world if gmap is None else GraspWorld(gmap, method.world)
+            inspect = GraspInspector(wm, world.camera.K, task, config.grasp.target, config.grasp.select,
+                                     config.grasp.inspect, insp_rng, near)
+        else:
+            def inspect(q, detection):  # on the method's own map and validity checker
+                return plan_inspect_view(method.world.checker, method.world.kin, method.occupancy, world.camera.K,
+                                         detection.points_world, outward, q, config.grasp.inspect, insp_rng)
     if config.grasp.enabled:
         grasp_rng = np.random.default_rng(np.random.SeedSequence((spec.seed, spec.level, spec.scene, spec.trial, 11)))
         charge = None if config.clock.measured else config.clock.planning_charge_s
 
         def grasp(q, detection, moved):
-            return run_grasp_stage(world, method.occupancy, detection, task, q, moved, config.grasp, grasp_rng, charge)
+            return run_grasp_stage(world, grasp_occ, detection, task, q, moved, config.grasp, grasp_rng, charge)
     try:
         outcome = TrialMachine(world, method, buffer, metrics, config, progress, pass_frames=oracle,
-                               grasp=grasp, observer=observer,
+                               grasp=grasp, observer=observers,
                                inspect=inspect, n_inspect=config.grasp.inspect.n_views).run()
     finally:
         buffer.close()

@@ -1,0 +1,114 @@
+"""The trial's grasp-aware INSPECT (`trial.grasp_views.GraspInspector`) inside the grasp-only
+harness, so `--grasp-only` measures what the trial does.
+
+The harness has no exploration world model, so `HarnessModel` gives the inspector the same
+interface over the harness's own map: `occ`, `swept` (the robot's way, its spheres grown by
+the world model's `swept_margin`), `checker` (the trial's method's rules: unknown and
+occupied unsafe, except the swept space and unknown space outside the confined space away
+from seen obstacles, `exploration.world_model.WorldModel.checker`), `kin` and `spheres`. `inspect_views` runs the loop: each planned view is executed by
+rendering depth frames along the path (every `frame_step` [rad]) into the map, with a
+ground-truth contact check every `check_step` [rad] (the simulator's, as the trial's
+executor does); a contact stops the loop and is reported."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..exploration.world_model import WorldModelConfig, manhattan_dilate, mark_spheres, outside_space_mask
+from ..mapping.distance import DistanceField, unsafe_mask
+from ..mapping.observe import integrate_observation
+from ..mapping.occupancy import OccupancyMap, VoxelState
+from ..motion.primitives import DistanceGrid
+from ..motion.timing import densify
+from ..motion.validity import ValidityChecker
+from ..robot.kinematics import PandaKinematics
+from ..robot.model import GRIPPER_MAX_WIDTH
+
+
+class HarnessModel:
+    """The harness's map with the robot's way as its own space (module doc)."""
+
+    def __init__(self, occ: OccupancyMap, spheres, robot, task, config: WorldModelConfig | None = None) -> None:
+        self.occ, self.spheres = occ, spheres
+        self.config = config or WorldModelConfig()
+        self.kin = PandaKinematics(robot)
+        self.swept_all = np.zeros(occ.shape, bool)
+        self.assumed_free = outside_space_mask(occ, task, self.config.space_margin, self.config.floor_margin)
+        self._checker = None
+
+    def add_swept(self, Q: np.ndarray) -> None:
+        """Mark the spheres of configurations Q (m,7) [rad], grown by margin, as the robot's."""
+        Q = np.asarray(Q, dtype=np.float64).reshape(-1, 7)
+        C = np.ascontiguousarray(self.spheres.sphere_centers(Q).reshape(-1, 3))
+        mark_spheres(self.swept_all, self.occ.grid_min, self.occ.resolution, C,
+                     np.tile(self.spheres.radii + self.config.swept_margin, len(Q)))
+        self._checker = None
+
+    @property
+    def swept(self) -> np.ndarray:
+        return self.swept_all & (self.occ.state != VoxelState.OCCUPIED)
+
+    @property
+    def checker(self) -> ValidityChecker:
+        if self._checker is None:  # the trial's method's rules (`WorldModel.checker`)
+            occupied = self.occ.occupied_mask()
+            halo = int(round(self.config.obstacle_halo / self.occ.resolution))
+            assumed = self.assumed_free & ~manhattan_dilate(occupied, halo) if halo > 0 else self.assumed_free
+            unsafe = unsafe_mask(self.occ, safe_voxels=(self.swept_all | assumed) & ~occupied)
+            field_ = DistanceField.from_unsafe(unsafe, self.occ.grid_min, self.occ.resolution)
+            self._checker = ValidityChecker(self.spheres, grid=DistanceGrid.from_distance_field(field_),
+                                            config=self.config.validity)
+        return self._checker
+
+    def observe(self, frame, max_range: float) -> None:
+        integrate_observation(self.occ, frame, self.spheres, max_range)
+        self._checker = None
+
+
+@dataclass(frozen=True, eq=False)
+class HarnessInspection:
+    """q_end (7,) [rad] where the inspection ended; n_views reached; n_plans attempted /
+    succeeded; contacts: ground-truth contacts on the way ((geom, geom) pairs); paths (each
+    (m,7) [rad]) the robot moved along; frames the depth frames rendered on the way (already
+    integrated into the model's map)."""
+
+    q_end: np.ndarray
+    n_views: int
+    n_plans: int
+    n_planned: int
+    contacts: tuple
+    paths: tuple
+    frames: tuple = ()
+
+
+def inspect_views(world, model: HarnessModel, inspector, q_start: np.ndarray, detection, n_views: int,
+                  frame_step: float = 0.1, check_step: float = 0.01) -> HarnessInspection:
+    """Up to n_views grasp-aware INSPECT views from q_start (module doc)."""
+    q = np.asarray(q_start, dtype=np.float64)
+    n_plans = n_planned = reached = 0
+    paths: list[np.ndarray] = []
+    frames: list = []
+    for _ in range(n_views):
+        p = inspector(q, detection)
+        if not p.planned:
+            break
+        n_plans += 1
+        if p.path is None:
+            break
+        n_planned += 1
+        dense = densify(np.asarray(p.path), check_step)
+        for qc in dense:
+            hit = world.contacts(qc, GRIPPER_MAX_WIDTH, include_self=True)
+            if hit:
+                world.set_q(q, GRIPPER_MAX_WIDTH)
+                return HarnessInspection(q, reached, n_plans, n_planned, tuple(hit), tuple(paths), tuple(frames))
+        for qf in densify(np.asarray(p.path), frame_step)[1:]:
+            frames.append(world.render(qf, rgb=False, seg=False))
+            model.observe(frames[-1], world.camera.depth_max)
+        model.add_swept(dense[:: max(1, int(0.05 / check_step))])
+        paths.append(np.asarray(p.path))
+        q = np.asarray(p.path)[-1]
+        reached += 1
+    world.set_q(q, GRIPPER_MAX_WIDTH)
+    return HarnessInspection(q, reached, n_plans, n_planned, (), tuple(paths), tuple(frames))

@@ -1,0 +1,158 @@
+"""Grasp-aware INSPECT: a next-best-view loop for the grasp, in the method's world only.
+
+One call (`GraspInspector.__call__`, one INSPECT step): (1) the target model from the
+detection and the method's map; (2) grasp hypotheses, the grasps that pass the selection's
+checks with unknown space free (`grasp.hypotheses`), and per hypothesis the unknown voxels
+its whole arm occupies along pre-grasp -> grasp -> lift that the strict selection counts as
+unsafe; (3) when some hypothesis needs no unknown voxel any more (`done_unknown`), or none
+exists, INSPECT stops without planning; otherwise camera poses are sampled on and around
+the hypotheses' approach axes (backed off `view_distance` [m], looking at the voxels each
+hypothesis needs) and around the target, solved by camera IK and kept when valid for the
+method's checker (its own rules for unknown space), plus configurations sampled near the
+current one; each is scored by the needed voxels it sees, inside its frustum and not
+behind a voxel seen occupied (a voxel weighs s_h / N_h summed over the hypotheses h that
+need it, s_h the score, N_h the number of voxels h needs: the gain is the score-weighted
+fraction of each hypothesis seen, so a view that completes one grasp beats one that sees a
+little of many), and the shared planner
+plans on the same checker to the best few (`InspectPlan.gain`: per mille of the
+hypotheses' weight the chosen view sees; at least `min_fraction` of it). The machine moves there, integrates the frames
+along the way, and calls again: the hypotheses are recomputed on the new map.
+"""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from ..errors import CompassInputError
+from ..exploration.viewpoints import sample_direction_in_cone, view_pose
+from ..grasp.hypotheses import grasp_hypotheses, needed_voxels, strict_unsafe_mask
+from ..grasp.select import base_volume
+from ..grasp.target import build_target_model
+from ..mapping.occupancy import OccupancyMap
+from ..motion.planner import plan
+from ..robot.ik import PandaIK
+from ..robot.model import Q_MAX, Q_MIN
+from .inspect import InspectConfig, InspectPlan, frustum_mask, seen_counts
+
+
+def weighted_voxels(occ: OccupancyMap, needed: list[np.ndarray], weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Union of the hypotheses' needed voxels: centres (N,3) [m] and weights (N,) (the sum
+    of the weights of the hypotheses needing each voxel)."""
+    if not needed or sum(len(n) for n in needed) == 0:
+        return np.zeros((0, 3)), np.zeros(0)
+    shape = np.asarray(occ.shape)
+    flat = np.concatenate([np.ravel_multi_index(n.T, shape) for n in needed])
+    w = np.concatenate([np.full(len(n), wt) for n, wt in zip(needed, weights)])
+    u, inv = np.unique(flat, return_inverse=True)
+    return occ.voxel_to_world(np.stack(np.unravel_index(u, shape), axis=1)), np.bincount(inv, weights=w)
+
+
+def view_candidates(hyp_axes: list[tuple[np.ndarray, np.ndarray]], centre: np.ndarray, around: np.ndarray,
+                    config: InspectConfig, rng: np.random.Generator) -> np.ndarray:
+    """(M,4,4) camera poses: n_per_axis around each (approach z (3,), look point (3,)) in
+    hyp_axes (directions within axis_cone of the approach, backed off view_distance), and
+    n_around looking at `centre` from within around_cone of `around`; random rolls."""
+    out = []
+    lo, hi = config.view_distance
+    for z, look in hyp_axes:
+        for _ in range(config.n_per_axis):
+            d = sample_direction_in_cone(z, config.axis_cone, rng)
+            out.append(view_pose(look, d, rng.uniform(lo, hi), rng.uniform(-np.pi, np.pi)))
+    for _ in range(config.n_around if len(centre) else 0):
+        d = sample_direction_in_cone(around, config.around_cone, rng)
+        out.append(view_pose(centre, d, rng.uniform(lo, hi), rng.uniform(-np.pi, np.pi)))
+    return np.array(out).reshape(-1, 4, 4)
+
+
+def weighted_gain(occ: OccupancyMap, T_world_cam: np.ndarray, K: np.ndarray, pts: np.ndarray, w: np.ndarray,
+                  config: InspectConfig, rng: np.random.Generator) -> np.ndarray:
+    """(M,) weight of the points (N,3) [m] each camera sees: frustum-weighted for all, the
+    best n_occlusion re-scored with occlusion on n_rays points drawn in proportion to w."""
+    gain = frustum_mask(T_world_cam, K, pts, config.max_range).astype(np.float64) @ w
+    if not config.occlusion or len(pts) == 0:
+        return gain
+    top = np.argsort(-gain, kind="stable")[: config.n_occlusion]
+    sub = pts[rng.choice(len(pts), config.n_rays, replace=True, p=w / w.sum())]
+    seen = seen_counts(occ, T_world_cam[top], K, sub, config.max_range)
+    out = np.zeros_like(gain)
+    out[top] = seen * w.sum() / config.n_rays
+    return out
+
+
+class GraspInspector:
+    """The INSPECT step of a trial (module doc), bound to the method's world model `wm`
+    (occ, checker, kin, spheres, swept), the camera intrinsics K (3,3), the Task, the grasp
+    stage's `grasp.target.TargetConfig` and `grasp.select.GraspSelectConfig`, the
+    `InspectConfig` and an explicit generator; near_body: `near_body(occ)` -> voxels the
+    grasp stage takes as free (or None). Call with (q_current (7,) [rad], detection) ->
+    InspectPlan."""
+
+    def __init__(self, wm, K: np.ndarray, task, target_config, select_config, config: InspectConfig,
+                 rng: np.random.Generator, near_body=None) -> None:
+        if not isinstance(rng, np.random.Generator):
+            raise CompassInputError(f"rng {rng!r:.40} is not allowed; give an explicit np.random.Generator")
+        self.wm, self.K, self.task, self.rng = wm, np.asarray(K, dtype=np.float64), task, rng
+        self.target_config, self.select_config, self.config = target_config, select_config, config
+        self.ik = PandaIK(wm.kin)
+        self.near_body = near_body
+        self.last: dict = {}  # what the last step saw (hypotheses, needed voxels, views), for diagnosis
+        self.stats: dict = {}
+
+    def needs(self, q_current: np.ndarray, detection, occ: OccupancyMap | None = None, hyps=None):
+        """(hypotheses, needed voxels per hypothesis) on `occ` (default the method's map);
+        given `hyps`, only their needed voxels are recounted on occ."""
+        wm = self.wm
+        occ = wm.occ if occ is None else occ
+        q = np.asarray(q_current, dtype=np.float64)
+        pts = np.asarray(detection.points_world, dtype=np.float64).reshape(-1, 3)
+        target = build_target_model(pts, detection.T_world_cam[:3, 3], self.task.target, occ, self.target_config)
+        cur = wm.spheres.sphere_centers(q[None])[0]
+        bc, br = base_volume(wm.spheres, q)
+        safe = (np.vstack([cur, bc]), np.r_[wm.spheres.radii + self.select_config.robot_clearance, br])
+        extra = wm.swept if self.near_body is None else (wm.swept | self.near_body(occ))
+        strict = strict_unsafe_mask(occ, target, self.select_config.clearance, safe, extra)
+        if hyps is None:
+            self.stats = {}
+            hyps = grasp_hypotheses(target, occ, self.task, q, wm.spheres, self.select_config, self.config.hypotheses,
+                                    self.rng, safe, extra, self.ik, stats=self.stats)
+        return hyps, needed_voxels(occ, hyps, wm.spheres, strict, self.config.hypotheses)
+
+    def __call__(self, q_current: np.ndarray, detection) -> InspectPlan:
+        t0 = time.perf_counter()
+        wm, config, rng = self.wm, self.config, self.rng
+        q = np.asarray(q_current, dtype=np.float64)
+        occ = wm.occ
+        hyps, needed = self.needs(q, detection)
+        counts = [len(n) for n in needed]
+        self.last = {"n_hypotheses": len(hyps), "needed": counts, "optimistic_rejections": dict(self.stats)}
+        if not hyps or min(counts) <= config.done_unknown:
+            return InspectPlan(None, 0, 0, time.perf_counter() - t0, planned=False)
+        w_h = np.array([h.score for h in hyps])  # each hypothesis weighs its score, spread over its voxels
+        vox, w = weighted_voxels(occ, needed, w_h / np.maximum(counts, 1))
+        axes = []
+        for k in np.argsort(-w_h, kind="stable")[: config.n_axes]:
+            if counts[k]:
+                look = occ.voxel_to_world(needed[k]).mean(axis=0)
+                axes.append((hyps[k].T_world_tcp[:3, 2], look))
+        around = np.mean([h.T_world_tcp[:3, 2] for h in hyps], axis=0)
+        T = view_candidates(axes, (w[:, None] * vox).sum(0) / w.sum(), around, config, rng)
+        Q = [s for Tc in T for s in self.ik.solve(Tc, "cam", q, config.n_q7, retry=False).solutions[:2]]
+        scale = np.r_[np.full(4, config.sigma), np.full(3, config.wrist_sigma)]
+        near = np.clip(q + rng.normal(0.0, 1.0, (config.n_samples, 7)) * scale, Q_MIN + 1e-3, Q_MAX - 1e-3)
+        n_ik = len(Q)
+        Q = np.vstack([np.array(Q).reshape(-1, 7), near])
+        Q = Q[np.asarray(wm.checker.are_valid(Q), dtype=bool)]
+        if len(Q) == 0:
+            return InspectPlan(None, 0, 0, time.perf_counter() - t0)
+        gain = weighted_gain(occ, wm.kin.T_world_cam_batch(Q), self.K, vox, w, config, rng)
+        order = np.argsort(-gain, kind="stable")
+        gain = 1000.0 * gain / w.sum()  # per mille of the hypotheses' weight seen
+        order = order[gain[order] >= 1000.0 * config.min_fraction][: config.n_goals]
+        self.last.update(n_valid=len(Q), n_ik_views=n_ik, best_gain=round(float(gain.max()), 1))
+        if len(order) == 0:
+            return InspectPlan(None, 0, len(Q), time.perf_counter() - t0, planned=False)
+        res = plan(q, Q[order], wm.checker, config.planner, rng)
+        if not res.success:
+            return InspectPlan(None, 0, len(Q), time.perf_counter() - t0)
+        return InspectPlan(res.path, int(round(gain[order[res.goal_index]])), len(Q), time.perf_counter() - t0)

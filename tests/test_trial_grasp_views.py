@@ -1,0 +1,111 @@
+"""Grasp-aware INSPECT (`trial.grasp_views`) in a constructed scene, on the method's own map
+and checker: the chosen view is reached without passing an invalid configuration (and free in
+truth), and its frame leaves less of the grasp hypotheses' needed unknown space than the frame
+of a random valid configuration near the start does."""
+from types import SimpleNamespace
+
+import numpy as np
+
+from compass_manip.exploration.world_model import WorldModel
+from compass_manip.mapping.observe import integrate_observation
+from compass_manip.motion.timing import densify
+from compass_manip.robot.model import Q_MAX, Q_MIN
+from compass_manip.sim.grasp_only import GraspOnlyConfig, oracle_detection, oracle_view
+from compass_manip.sim.scenes import CabinetSpec, Primitive, SceneSpec
+from compass_manip.sim.world import World
+from compass_manip.trial.config import GraspTrialConfig
+from compass_manip.mapping.occupancy import VoxelState
+from compass_manip.trial.grasp_map import GraspMap
+from compass_manip.trial.grasp_views import GraspInspector, view_candidates
+from compass_manip.types import Trajectory
+from compass_manip.trial.inspect import InspectConfig
+
+
+def test_view_candidates_look_along_the_axes_from_the_set_distance():
+    rng = np.random.default_rng(0)
+    cfg = InspectConfig(n_per_axis=5, n_around=3, axis_cone=0.3, view_distance=(0.3, 0.4))
+    z, look = np.array([1.0, 0.0, 0.0]), np.array([0.6, 0.0, 0.4])
+    T = view_candidates([(z, look)], np.array([0.6, 0.1, 0.4]), np.array([0.0, 1.0, 0.0]), cfg, rng)
+    assert T.shape == (8, 4, 4)
+    ax = T[:5]
+    assert np.all(ax[:, :3, 2] @ z >= np.cos(0.3) - 1e-9)  # optical axes within the cone of the approach
+    d = np.linalg.norm(ax[:, :3, 3] - look, axis=1)
+    assert np.all((d >= 0.3 - 1e-9) & (d <= 0.4 + 1e-9))
+    to_look = (look - ax[:, :3, 3]) / d[:, None]
+    assert np.allclose(np.einsum("ij,ij->i", to_look, ax[:, :3, 2]), 1.0)  # looking at the point
+
+
+def _remaining(inspector, q, det, hyps, occ):
+    w = np.array([h.score for h in hyps])
+    _, needed = inspector.needs(q, det, occ=occ, hyps=hyps)
+    return float(sum(wi * len(n) / max(n0, 1) for wi, n, n0 in zip(w, needed, inspector.counts0)))
+
+
+def test_grasp_view_is_valid_all_the_way_and_sees_more_of_the_needed_space_than_a_random_valid_view():
+    cab = CabinetSpec((0.45, -0.3, 0.30), (0.80, 0.3, 0.80))  # an empty, open cabinet
+    target = Primitive("target", "box", (0.02, 0.02, 0.06), (0.60, 0.0, 0.36), 0.2, (0.9, 0.05, 0.05, 1.0), True, 0.08)
+    scene = SceneSpec(level=1, index=0, seed=(0,), cabinet=cab, target=target)
+    world = World(scene)
+    try:
+        rng = np.random.default_rng(0)
+        q_view, _ = oracle_view(world, rng, GraspOnlyConfig())  # a view that sees the target (test fixture)
+        task = scene.task()
+        q_home = np.asarray(world.robot.q_home)
+        wm = WorldModel(q_home, robot=world.robot, task=task)
+        path = np.stack([q_home + (q_view - q_home) * s for s in np.linspace(0.0, 1.0, 8)])
+        for q in path:
+            wm.observe(world.render(q, rgb=False, seg=False).observation())
+        wm.add_swept(path)
+        view = world.render(q_view, rgb=False, seg=True)
+        det = SimpleNamespace(points_world=oracle_detection(world, view), T_world_cam=view.T_world_cam)
+        gc = GraspTrialConfig()
+        insp = GraspInspector(wm, world.camera.K, task, gc.target, gc.select, gc.inspect, np.random.default_rng(1))
+        hyps, needed = insp.needs(q_view, det)
+        assert hyps and min(len(n) for n in needed) > 0  # the grasps still need unseen space
+        insp.counts0 = [len(n) for n in needed]
+        p = insp(q_view, det)
+        assert p.planned and p.path is not None and np.allclose(p.path[0], q_view)
+        dense = densify(p.path, 0.005)
+        assert np.all(wm.checker.are_valid(dense))  # never through an invalid configuration
+        assert not any(world.in_collision(q) for q in dense[::10])  # and free in truth
+
+        def after(q):
+            occ = wm.occ.copy()
+            integrate_observation(occ, world.render(q, rgb=False, seg=False).observation(), wm.spheres,
+                                  wm.config.max_range)
+            return _remaining(insp, q_view, det, hyps, occ)
+
+        chosen = after(p.path[-1])
+        near = q_view + np.random.default_rng(2).normal(0.0, 1.0, (200, 7)) * np.r_[np.full(4, 0.12), np.full(3, 0.5)]
+        near = np.clip(near, Q_MIN + 1e-3, Q_MAX - 1e-3)
+        near = near[np.asarray(wm.checker.are_valid(near), bool)][:5]
+        assert len(near) == 5
+        random_views = [after(q) for q in near]
+        before = _remaining(insp, q_view, det, hyps, wm.occ)
+        assert chosen < before and chosen < np.median(random_views)
+    finally:
+        world.close()
+
+
+def test_grasp_map_integrates_frames_at_1cm_and_marks_the_way_but_not_seen_obstacles():
+    cab = CabinetSpec((0.45, -0.3, 0.30), (0.80, 0.3, 0.80))
+    target = Primitive("target", "box", (0.02, 0.02, 0.06), (0.60, 0.0, 0.36), 0.2, (0.9, 0.05, 0.05, 1.0), True, 0.08)
+    world = World(SceneSpec(level=1, index=0, seed=(0,), cabinet=cab, target=target))
+    try:
+        gm = GraspMap(world.robot)
+        assert gm.occ.resolution == 0.01
+        q_home = np.asarray(world.robot.q_home)
+        gm.start(world, None)
+        gm.frame(world.render(q_home, rgb=False, seg=False), None)
+        occ = gm.occ
+        assert (occ.state == VoxelState.OCCUPIED).sum() > 100 and (occ.state == VoxelState.FREE).sum() > 1000
+        q1 = q_home + np.r_[0.3, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]
+        gm.motion(Trajectory(np.array([0.0, 1.0]), np.stack([q_home, q1])), 0.0, 1.0)
+        mid = gm.spheres.sphere_centers(((q_home + q1) / 2)[None])[0]  # a configuration on the way
+        v = occ.world_to_voxel(mid)
+        assert gm.swept_all[v[:, 0], v[:, 1], v[:, 2]].all()
+        occ.state[v[0, 0], v[0, 1], v[0, 2]] = VoxelState.OCCUPIED  # seen occupied later: not the robot's
+        assert not gm.swept[v[0, 0], v[0, 1], v[0, 2]] and gm.swept[v[1, 0], v[1, 1], v[1, 2]] == \
+            (occ.state[v[1, 0], v[1, 1], v[1, 2]] != VoxelState.OCCUPIED)
+    finally:
+        world.close()
