@@ -6,13 +6,12 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from compass_manip.exploration.world_model import WorldModel
+from _inspect_fixtures import empty_cabinet_world, observed_view
+
 from compass_manip.mapping.observe import integrate_observation
 from compass_manip.motion.timing import densify
 from compass_manip.robot.model import Q_MAX, Q_MIN
-from compass_manip.sim.grasp_only import GraspOnlyConfig, oracle_detection, oracle_view
-from compass_manip.sim.scenes import CabinetSpec, Primitive, SceneSpec
-from compass_manip.sim.world import World
+from compass_manip.sim.grasp_only import oracle_detection
 from compass_manip.trial.config import GraspTrialConfig
 from compass_manip.mapping.occupancy import VoxelState
 from compass_manip.trial.grasp_map import GraspMap
@@ -42,21 +41,9 @@ def _remaining(inspector, q, det, hyps, occ):
 
 
 def test_grasp_view_is_valid_all_the_way_and_sees_more_of_the_needed_space_than_a_random_valid_view():
-    cab = CabinetSpec((0.45, -0.3, 0.30), (0.80, 0.3, 0.80))  # an empty, open cabinet
-    target = Primitive("target", "box", (0.02, 0.02, 0.06), (0.60, 0.0, 0.36), 0.2, (0.9, 0.05, 0.05, 1.0), True, 0.08)
-    scene = SceneSpec(level=1, index=0, seed=(0,), cabinet=cab, target=target)
-    world = World(scene)
+    world = empty_cabinet_world()
     try:
-        rng = np.random.default_rng(0)
-        q_view, _ = oracle_view(world, rng, GraspOnlyConfig())  # a view that sees the target (test fixture)
-        task = scene.task()
-        q_home = np.asarray(world.robot.q_home)
-        wm = WorldModel(q_home, robot=world.robot, task=task)
-        path = np.stack([q_home + (q_view - q_home) * s for s in np.linspace(0.0, 1.0, 8)])
-        for q in path:
-            wm.observe(world.render(q, rgb=False, seg=False).observation())
-        wm.add_swept(path)
-        view = world.render(q_view, rgb=False, seg=True)
+        task, wm, q_view, view = observed_view(world)
         det = SimpleNamespace(points_world=oracle_detection(world, view), T_world_cam=view.T_world_cam)
         gc = GraspTrialConfig()
         insp = GraspInspector(wm, world.camera.K, task, gc.target, gc.select, gc.inspect, np.random.default_rng(1))
@@ -88,9 +75,7 @@ def test_grasp_view_is_valid_all_the_way_and_sees_more_of_the_needed_space_than_
 
 
 def test_grasp_map_integrates_frames_at_1cm_and_marks_the_way_but_not_seen_obstacles():
-    cab = CabinetSpec((0.45, -0.3, 0.30), (0.80, 0.3, 0.80))
-    target = Primitive("target", "box", (0.02, 0.02, 0.06), (0.60, 0.0, 0.36), 0.2, (0.9, 0.05, 0.05, 1.0), True, 0.08)
-    world = World(SceneSpec(level=1, index=0, seed=(0,), cabinet=cab, target=target))
+    world = empty_cabinet_world()
     try:
         gm = GraspMap(world.robot)
         assert gm.occ.resolution == 0.01

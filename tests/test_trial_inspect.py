@@ -1,19 +1,16 @@
 """INSPECT between FOUND and GRASP: the corridor in front of the target, the frustum count,
 views planned on the method's own checker (never through an invalid configuration) that
 see the corridor, and the machine's INSPECT state (plans counted, the grasp still tried)."""
-from types import SimpleNamespace
-
 import numpy as np
 import pytest
 
+from _inspect_fixtures import empty_cabinet_world, machine_parts, observed_view
+
 from compass_manip.errors import CompassInputError
-from compass_manip.exploration.world_model import WorldModel
 from compass_manip.geometry import look_at
 from compass_manip.mapping.occupancy import MapConfig, OccupancyMap, VoxelState
 from compass_manip.motion.timing import densify
-from compass_manip.sim.grasp_only import GraspOnlyConfig, oracle_detection, oracle_view
-from compass_manip.sim.scenes import CabinetSpec, Primitive, SceneSpec
-from compass_manip.sim.world import World
+from compass_manip.sim.grasp_only import oracle_detection
 from compass_manip.trial.config import TrialConfig
 from compass_manip.trial.grasp_stage import GraspStageResult
 from compass_manip.trial.inspect import (InspectConfig, InspectPlan, corridor_unknown, frustum_counts,
@@ -59,21 +56,10 @@ def test_inspect_config_rejects_bad_values():
 
 
 def test_inspect_view_is_valid_all_the_way_and_sees_the_corridor():
-    cab = CabinetSpec((0.45, -0.3, 0.30), (0.80, 0.3, 0.80))  # an empty, open cabinet
-    target = Primitive("target", "box", (0.02, 0.02, 0.06), (0.60, 0.0, 0.36), 0.2, (0.9, 0.05, 0.05, 1.0), True, 0.08)
-    scene = SceneSpec(level=1, index=0, seed=(0,), cabinet=cab, target=target)
-    world = World(scene)
+    world = empty_cabinet_world()
     try:
         rng = np.random.default_rng(0)
-        q_view, _ = oracle_view(world, rng, GraspOnlyConfig())  # a view that sees the target (test fixture)
-        task = scene.task()
-        q_home = np.asarray(world.robot.q_home)
-        wm = WorldModel(q_home, robot=world.robot, task=task)
-        path = np.stack([q_home + (q_view - q_home) * s for s in np.linspace(0.0, 1.0, 8)])
-        for q in path:
-            wm.observe(world.render(q, rgb=False, seg=False).observation())
-        wm.add_swept(path)
-        view = world.render(q_view, rgb=False, seg=True)
+        task, wm, q_view, view = observed_view(world)
         pts = oracle_detection(world, view)
         outward = np.asarray(task.space.outward, float)
         cfg = InspectConfig()
@@ -93,14 +79,7 @@ def test_inspect_view_is_valid_all_the_way_and_sees_the_corridor():
 
 def test_machine_inspects_between_found_and_grasp_and_counts_the_plans():
     calls, order = [], []
-    world = SimpleNamespace(q=np.zeros(7), render=lambda q, t=0.0, rgb=True, seg=False: SimpleNamespace(
-        T_world_cam=np.eye(4), observation=lambda: None))
-    method = SimpleNamespace(observe=lambda obs: None, occupancy=None, add_points_of_interest=lambda pts: None)
-    det = SimpleNamespace(t=1.5, points_world=np.ones((20, 3)), T_world_cam=np.eye(4))
-    buffer = SimpleNamespace(push=lambda f: None, sync=lambda: None, take_hints=lambda: np.zeros((0, 3)),
-                             best=lambda: SimpleNamespace(detection=det))
-    metrics = SimpleNamespace(collisions=0, explored_fraction=lambda t, occ: None, plans_attempted=0,
-                              plans_succeeded=0)
+    world, method, buffer, metrics = machine_parts()
 
     def inspect(q, detection):
         calls.append(detection.points_world.shape)
@@ -120,14 +99,7 @@ def test_machine_inspects_between_found_and_grasp_and_counts_the_plans():
 
 
 def test_machine_charges_but_does_not_count_an_inspect_step_that_plans_nothing():
-    world = SimpleNamespace(q=np.zeros(7), render=lambda q, t=0.0, rgb=True, seg=False: SimpleNamespace(
-        T_world_cam=np.eye(4), observation=lambda: None))
-    method = SimpleNamespace(observe=lambda obs: None, occupancy=None, add_points_of_interest=lambda pts: None)
-    det = SimpleNamespace(t=1.5, points_world=np.ones((20, 3)), T_world_cam=np.eye(4))
-    buffer = SimpleNamespace(push=lambda f: None, sync=lambda: None, take_hints=lambda: np.zeros((0, 3)),
-                             best=lambda: SimpleNamespace(detection=det))
-    metrics = SimpleNamespace(collisions=0, explored_fraction=lambda t, occ: None, plans_attempted=0,
-                              plans_succeeded=0)
+    world, method, buffer, metrics = machine_parts()
     calls = []
 
     def inspect(q, detection):  # e.g. a grasp hypothesis already needs no unknown voxel
