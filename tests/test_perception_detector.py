@@ -4,8 +4,10 @@ when the target is hidden. Also the learned-detector plug-in adapter."""
 import numpy as np
 import pytest
 
+import compass_manip.perception.detector as detector_module
 from compass_manip.perception.detector import (AppearanceDetector, BoxModelDetector, Verdict, classify_shape,
                                                colour_mask, DetectorConfig)
+from compass_manip.perception.shape import curved_like, cylinder_relief, plane_rms
 from compass_manip.sim.scenes import CabinetSpec, Primitive, SceneSpec, target_query
 from compass_manip.sim.world import World
 
@@ -124,3 +126,37 @@ def test_oracle_detector_and_truth_check(detector):
     assert verdicts[Verdict.ACCEPTED] is True and verdicts[Verdict.WRONG_SHAPE] is False
     lo, hi = target_surroundings(scene, 0.1)
     assert np.all(lo >= np.asarray(CAB.interior_min)) and np.all(hi <= np.asarray(CAB.interior_max))
+
+
+def test_cylinder_relief_and_plane_rms_against_closed_forms():
+    r = 0.03
+    # a half cylinder seen square on: std of sqrt(r^2 - x^2), x uniform on [-r, r] = r sqrt(2/3 - pi^2/16)
+    assert cylinder_relief(r, r, n=20001) == pytest.approx(r * np.sqrt(2 / 3 - np.pi ** 2 / 16), rel=1e-3)
+    assert cylinder_relief(2 * r, r) == cylinder_relief(r, r)  # a chord is never wider than the diameter
+    assert cylinder_relief(0.0, r) == pytest.approx(0.0, abs=1e-12)
+    rng = np.random.default_rng(0)
+    u, z = rng.uniform(-1, 1, 4000), rng.uniform(0, 0.15, 4000)
+    plane = np.c_[0.7 + 0.0 * u, 0.03 * u, z]
+    assert plane_rms(plane) == pytest.approx(0.0, abs=1e-12)
+    theta = np.arcsin(u * 0.9)  # a strip of a cylinder about z, 0.9 r wide on each side of its axis
+    side = np.c_[0.7 - r * np.cos(theta), r * np.sin(theta), z]
+    assert plane_rms(side) == pytest.approx(cylinder_relief(0.9 * r, r), rel=0.15)
+    assert curved_like(side, r, 1.8 * r, 0.5) and not curved_like(plane + [0.0005, 0.0, 0.0] * rng.normal(size=(4000, 1)),
+                                                                  r, 1.8 * r, 0.5)
+
+
+def test_a_flat_strip_of_a_big_box_whose_normals_look_round_is_not_the_can(monkeypatch):
+    """A 5 cm strip of a red box's face between two boards has the queried can's visible size;
+    if its normals (spread by the strip's edges) make the classifier say round, the missing
+    depth relief still keeps it from being accepted (a false detection seen in a trial)."""
+    can = Primitive("target", "cylinder", (0.032, 0.09), (0.80, 0.25, FLOOR_Z + 0.09), 0.0, RED)  # out of view
+    box = Primitive("red_box", "box", (0.07, 0.07, 0.09), (0.72, -0.05, FLOOR_Z + 0.09), 0.3, RED)
+    boards = [Primitive(f"board{i}", "box", (0.005, 0.12, 0.15), (0.62, -0.05 + s * (0.12 + 0.0225), FLOOR_Z + 0.15),
+                        0.0, GREY) for i, s in enumerate((-1, 1))]
+    frame, _ = _observe(_scene([box, *boards], target=can))
+    monkeypatch.setattr(detector_module, "classify_shape", lambda *a, **k: "round")
+    strict = AppearanceDetector()(frame.observation(), target_query(can))
+    assert len(strict) == 1 and not strict[0].accepted and strict[0].verdict is Verdict.WRONG_SHAPE
+    assert strict[0].extents[2] > 0.15  # the strip is as tall as the can: only the relief tells them apart
+    loose = AppearanceDetector(DetectorConfig(min_curvature_ratio=0.0))(frame.observation(), target_query(can))
+    assert loose[0].accepted  # without the relief check it would have been taken for the can

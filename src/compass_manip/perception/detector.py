@@ -28,6 +28,7 @@ from ..errors import CompassInputError
 from ..task import TargetQuery
 from ..types import Observation
 from .colour import ColourMaskCache, colour_mask  # noqa: F401 (colour_mask: part of this module's API)
+from .shape import classify_shape, curved_like  # noqa: F401 (classify_shape: part of this module's API)
 from .target import backproject_image, region_normals, upright_extents
 
 #: Shape classes of a TargetQuery grouped by the surface a depth camera sees.
@@ -53,7 +54,10 @@ class DetectorConfig:
     which it is a sphere; min_side_pixels for a shape verdict; size_tolerance: measured
     extents may exceed the query's by this fraction (+ size_slack [m]); min_completeness:
     visible height and width over the query's needed to accept; border_px: regions touching
-    the image border are partial unless at least border_completeness of the object shows."""
+    the image border are partial unless at least border_completeness of the object shows;
+    min_curvature_ratio: a region classed round must deviate from its best plane by at least
+    this share of what a cylinder of the query's radius would over the same visible width
+    (`shape.curved_like`), else its side is flat (a sliver of a box face is not a can)."""
 
     colour_max_angle_deg: float = 10.0
     min_value: float = 0.12
@@ -69,6 +73,7 @@ class DetectorConfig:
     min_completeness: float = 0.6
     border_px: int = 2
     border_completeness: float = 0.75
+    min_curvature_ratio: float = 0.5
     max_points: int = 3000
 
     def __post_init__(self) -> None:
@@ -116,45 +121,6 @@ class Detector(Protocol):
     def __call__(self, obs: Observation, query: TargetQuery) -> tuple[Detection, ...]: ...
 
 
-def classify_shape(normals: np.ndarray, points: np.ndarray, cam_pos: np.ndarray,
-                   config: DetectorConfig) -> str:
-    """'box' | 'round' | 'sphere' | 'unknown' from world normals (N, 3) of a region's
-    pixels and their points (N, 3) [m] seen from cam_pos (3,) [m]."""
-    if len(normals) < config.min_side_pixels:
-        return "unknown"
-    n = normals * np.sign(np.sum(normals * (cam_pos - points), axis=1))[:, None]  # towards the camera
-    nz = np.abs(n[:, 2])
-    side = nz < 0.3
-    slant = (nz >= 0.3) & (nz <= 0.9)
-    if slant.mean() >= config.sphere_slant_fraction:
-        return "sphere"
-    if side.sum() < config.min_side_pixels:
-        return "unknown"
-    theta = np.degrees(np.arctan2(n[side, 1], n[side, 0]))
-    frac = _two_mode_fraction(theta, config.mode_halfwidth_deg)
-    if frac >= config.planar_fraction_box:
-        return "box"
-    if frac < config.planar_fraction_round:
-        return "round"
-    return "unknown"
-
-
-def _two_mode_fraction(theta_deg: np.ndarray, halfwidth: float) -> float:
-    """Fraction of angles [deg] within +-halfwidth of the best two (circular) modes."""
-    hist = np.bincount(np.floor((theta_deg + 180.0) % 360.0).astype(int), minlength=360)[:360]
-    w = int(round(halfwidth))
-    kernel = np.ones(2 * w + 1)
-    win = np.convolve(np.concatenate([hist[-w:], hist, hist[:w]]), kernel, mode="valid")
-    i1 = int(np.argmax(win))
-    total = win[i1]
-    h2 = hist.copy()
-    idx = (np.arange(i1 - w, i1 + w + 1)) % 360
-    h2[idx] = 0
-    win2 = np.convolve(np.concatenate([h2[-w:], h2, h2[:w]]), kernel, mode="valid")
-    total += win2.max()
-    return float(total / max(len(theta_deg), 1))
-
-
 class AppearanceDetector:
     """Colour + 3D shape class + size detector (see the module docstring)."""
 
@@ -194,6 +160,8 @@ class AppearanceDetector:
         shape = classify_shape(nrm[ir, ic], pts[sl][ir, ic], obs.T_world_cam[:3, 3], config)
         ext = upright_extents(P)
         a, b, c = (float(v) for v in query.size)
+        if shape == "round" and not curved_like(pts[sl][ir, ic], 0.5 * min(a, b), ext[0], config.min_curvature_ratio):
+            shape = "box"  # normals spread by the region's edges, but the surface is a plane
         tol = 1.0 + config.size_tolerance
         too_big = ext[2] > c * tol + config.size_slack or ext[0] > math.hypot(a, b) * tol + config.size_slack
         completeness = min(1.0, ext[2] / c, ext[0] / b)
