@@ -77,31 +77,69 @@ def rot_angle(Ra: np.ndarray, Rb: np.ndarray) -> np.ndarray:
     return np.arccos(np.clip((tr - 1.0) / 2.0, -1.0, 1.0))
 
 
-def blocking_cells(field, T, local, voxel_extent=True):
-    """World centres (K,3) of the unsafe fine cells each failing hand sphere reaches, and the
-    names of the failing sphere indices."""
-    C, r = local
-    W = C @ T[:3, :3].T + T[:3, 3]
-    half = 0.5 * math.sqrt(3.0) * field.resolution if voxel_extent else 0.0
+def sphere_bound_fails(field, W: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """(K,) True where a sphere (centres W (K,3), radii r [m]) fails the checkers' bound."""
     res = field.resolution
+    f = (W - field.grid_min) / res - 0.5
+    i = np.floor(f + 0.5).astype(int)
+    inside = np.all((i >= 0) & (i < np.asarray(field.distances.shape)), axis=1)
+    out = np.ones(len(W), bool)
+    ii = i[inside]
+    d = field.distances[ii[:, 0], ii[:, 1], ii[:, 2]]
+    off = np.linalg.norm(f[inside] - ii, axis=1) * res
+    out[inside] = d - off - 0.5 * math.sqrt(3.0) * res - r[inside] < 0.0
+    return out
+
+
+def blocking_cells(field, W: np.ndarray, r: np.ndarray):
+    """World centres (K,3) of the unsafe fine cells the spheres (W (S,3), r (S,)) that fail
+    the checkers' bound reach (within r + a cell diagonal), and the failing sphere indices."""
+    res = field.resolution
+    reach_pad = math.sqrt(3.0) * res
     unsafe = field.distances <= 1e-6
     cells, failing = [], []
-    for k in range(len(r)):
-        reach = r[k] + half + res
-        lo = np.floor((W[k] - reach - field.grid_min) / res).astype(int)
-        hi = np.floor((W[k] + reach - field.grid_min) / res).astype(int) + 1
-        lo, hi = np.clip(lo, 0, unsafe.shape), np.clip(hi, 0, unsafe.shape)
-        sub = unsafe[lo[0]:hi[0], lo[1]:hi[1], lo[2]:hi[2]]
-        ijk = np.argwhere(sub) + lo
-        if not len(ijk):
-            continue
+    for k in np.nonzero(sphere_bound_fails(field, W, r))[0]:
+        failing.append(int(k))
+        reach = r[k] + reach_pad
+        lo = np.clip(np.floor((W[k] - reach - field.grid_min) / res).astype(int), 0, unsafe.shape)
+        hi = np.clip(np.floor((W[k] + reach - field.grid_min) / res).astype(int) + 1, 0, unsafe.shape)
+        ijk = np.argwhere(unsafe[lo[0]:hi[0], lo[1]:hi[1], lo[2]:hi[2]]) + lo
         c = field.grid_min + (ijk + 0.5) * res
-        near = np.linalg.norm(c - W[k], axis=1) <= r[k] + half + 0.5 * math.sqrt(3.0) * res
-        if near.any():
-            failing.append(k)
-            cells.append(c[near])
+        c = c[np.linalg.norm(c - W[k], axis=1) <= reach]
+        if len(c):
+            cells.append(c)
     cells = np.unique(np.round(np.vstack(cells), 5), axis=0) if cells else np.zeros((0, 3))
     return cells, failing
+
+
+def classify(cells, scene, occ, fine, T_ref, bottom_z) -> dict:
+    """Map state (1 cm / 5 mm) / truth / height class counts of blocking cells, and where they lie."""
+    rec = {"n_cells": len(cells)}
+    if not len(cells):
+        return rec
+    tall = oracle.scene_obstacles(scene).arrays()
+    rest = oracle.scene_obstacles(scene, exclude_target=True).arrays()
+    d_rest, d_all = _dists(cells, rest), _dists(cells, tall)
+    h = 0.5 * math.sqrt(3.0) * occ.resolution
+    truth = np.where(d_rest <= h, "obstacle", np.where(d_all <= h, "target", "free_in_truth"))
+    vox = occ.world_to_voxel(cells)
+    st = occ.state[vox[:, 0], vox[:, 1], vox[:, 2]]
+    fst = np.full(len(cells), -1)
+    if fine is not None:
+        fv = fine.world_to_voxel(cells)
+        inb = fine.in_grid(fv)
+        fst[inb] = fine.state[fv[inb, 0], fv[inb, 1], fv[inb, 2]]
+    above = cells[:, 2] - bottom_z
+    keys = [f"{STATE[int(a)]}/{STATE.get(int(b), 'none')}/{t}/{'below_bottom' if z < 0 else 'above_bottom'}"
+            for a, b, t, z in zip(st, fst, truth, above)]
+    rec["by_map_fine_truth_height"] = dict(Counter(keys).most_common())
+    loc = (cells - T_ref[:3, 3]) @ T_ref[:3, :3]
+    rec["tcp_frame_median_cm"] = [round(100 * float(v), 1) for v in np.median(loc, axis=0)]
+    rec["height_above_bottom_cm_min_median"] = [round(100 * float(np.min(above)), 1),
+                                                round(100 * float(np.median(above)), 1)]
+    rec["truth_dist_median_cm"] = round(100 * float(np.median(d_rest)), 1)
+    rec["base_dist_median_m"] = round(float(np.median(np.linalg.norm(cells[:, :2] - scene.robot_base_pos[:2], axis=1))), 2)
+    return rec
 
 
 def diagnose(level: int, index: int, seed: int) -> dict:
@@ -167,36 +205,50 @@ def diagnose(level: int, index: int, seed: int) -> dict:
                 T_b, where = T, f"approach_{round(100 * k * cfg.pregrasp_distances[-1], 1)}cm"
                 break
     rec["cert_blocked_at"] = where if (not at or where != "grasp") else None
-    cells, failing = blocking_cells(f, T_b, local)
-    rec["cert_blocking_spheres"] = len(failing)
-    rec["cert_blocking_cells"] = len(cells)
-    if len(cells):
-        tall = oracle.scene_obstacles(scene).arrays()
-        rest = oracle.scene_obstacles(scene, exclude_target=True).arrays()
-        d_rest, d_all = _dists(cells, rest), _dists(cells, tall)
-        h = 0.5 * math.sqrt(3.0) * occ.resolution
-        truth = np.where(d_rest <= h, "obstacle", np.where(d_all <= h, "target", "free_in_truth"))
-        vox = occ.world_to_voxel(cells)
-        st = occ.state[vox[:, 0], vox[:, 1], vox[:, 2]]
-        fst = np.full(len(cells), -1)
-        fm = box["fine"]
-        if fm is not None:
-            fv = fm.world_to_voxel(cells)
-            inb = fm.in_grid(fv)
-            fst[inb] = fm.state[fv[inb, 0], fv[inb, 1], fv[inb, 2]]
-        loc = (cells - T_b[:3, 3]) @ T_b[:3, :3]  # TCP frame: x, y closing, z approach
-        above = cells[:, 2] - target.bottom_z
-        keys = [f"{STATE[int(a)]}/{STATE.get(int(b), 'none')}/{t}/{'below_bottom' if z < 0 else 'above_bottom'}"
-                for a, b, t, z in zip(st, fst, truth, above)]
-        rec["cells_by_map_fine_truth_height"] = dict(Counter(keys).most_common())
-        rec["cells_tcp_frame_median_cm"] = [round(100 * float(v), 1) for v in np.median(loc, axis=0)]
-        rec["cells_tcp_z_range_cm"] = [round(100 * float(loc[:, 2].min()), 1), round(100 * float(loc[:, 2].max()), 1)]
-        rec["cells_height_above_bottom_cm"] = [round(100 * float(np.min(above)), 1), round(100 * float(np.median(above)), 1)]
-        rec["cells_truth_dist_median_cm"] = round(100 * float(np.median(d_rest)), 1)
-        names = spheres.link_names
-        body = rigid_body_names(spheres)
-        rec["blocking_links"] = dict(Counter(body[k] for k in failing))
+    C, r = local
+    cells, failing = blocking_cells(f, C @ T_b[:3, :3].T + T_b[:3, 3], r)
+    body = rigid_body_names(spheres)
+    rec["hand_blocking_links"] = dict(Counter(body[k] for k in failing))
+    rec["hand_cells"] = classify(cells, scene, occ, box["fine"], T_b, target.bottom_z)
+    # the certified arm configurations (grasp, pre-grasp, lift) on the same field, whole robot
+    marks = dict(zip(("view", "pregrasp", "grasp", "lift"), cert.path_marks))
+    for name in ("pregrasp", "grasp", "lift"):
+        qc = np.array(cert.path[marks[name]])
+        rec[f"cert_q_{name}_valid"] = bool(ch.valid(qc[None])[0])
+    qg = np.array(cert.path[marks["grasp"]])
+    W = spheres.sphere_centers(qg[None])[0]
+    cells, failing = blocking_cells(f, W, spheres.radii)
+    rec["arm_blocking_links"] = dict(Counter(spheres.link_names[spheres.body_index[k]] for k in failing))
+    rec["arm_cells"] = classify(cells, scene, occ, box["fine"], T_c, target.bottom_z)
+    # the straight certified path from the view to the pre-grasp: the first configuration it fails at
+    path = np.array(cert.path)
+    seg = path[marks["view"]:marks["pregrasp"] + 1]
+    dense = np.concatenate([np.linspace(seg[i], seg[i + 1], 10, endpoint=False) for i in range(len(seg) - 1)]
+                           + [seg[-1:]])
+    bad = ~ch.valid(dense)
+    rec["cert_transfer_valid_fraction"] = round(float(1.0 - bad.mean()), 2)
+    if bad.any():  # what blocks the certified transfer: links and cells over its invalid configurations
+        Ws = spheres.sphere_centers(dense[bad])
+        links, cells = Counter(), []
+        for W in Ws:
+            c, failing = blocking_cells(f, W, spheres.radii)
+            links.update({spheres.link_names[spheres.body_index[k]] for k in failing})
+            cells.append(c)
+        cells = np.unique(np.round(np.vstack(cells), 5), axis=0)
+        rec["transfer_blocking_links"] = dict(links)
+        rec["transfer_cells"] = classify(cells, scene, occ, box["fine"], T_c, target.bottom_z)
+        near = grasp_only.near_body_unknown(occ, spheres, np.asarray(world_q_home(scene)))
+        v = occ.world_to_voxel(cells)
+        rec["transfer_cells_in_near_body_mask"] = int(near[v[:, 0], v[:, 1], v[:, 2]].sum())
     return rec
+
+
+def world_q_home(scene):
+    world = World(scene)
+    try:
+        return np.asarray(world.robot.q_home)
+    finally:
+        world.close()
 
 
 def rigid_body_names(spheres) -> list[str]:
