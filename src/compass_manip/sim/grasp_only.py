@@ -54,7 +54,10 @@ class GraspOnlyConfig:
     field_upsample x the map's resolution in a box fine_margin [m] around the target's points
     (`grasp.field.local_fine_map`), the grasp's hand checks near the target use its labels;
     inspect: the trial's grasp-aware INSPECT views before the selection (`sim.grasp_inspect`;
-    n_views=0: off)."""
+    n_views=0: off); near_field_scan: greedy views of the unknown space around the body after
+    the near_field_views random ones (`sim.near_field`; None: off); near_body_free: take the
+    unknown space links 0-4 sweep near home as free (`near_body_unknown`; off by default since
+    the scan: that assumption let two transfers touch a base obstacle)."""
 
     n_view_samples: int = 80
     view_distance: tuple[float, float] = (0.25, 0.5)
