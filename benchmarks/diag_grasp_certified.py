@@ -138,6 +138,7 @@ def classify(cells, scene, occ, fine, T_ref, bottom_z) -> dict:
     rec["height_above_bottom_cm_min_median"] = [round(100 * float(np.min(above)), 1),
                                                 round(100 * float(np.median(above)), 1)]
     rec["truth_dist_median_cm"] = round(100 * float(np.median(d_rest)), 1)
+    rec["base_frame_median_m"] = [round(float(v), 2) for v in np.median(cells - np.asarray(scene.robot_base_pos), axis=0)]
     rec["base_dist_median_m"] = round(float(np.median(np.linalg.norm(cells[:, :2] - scene.robot_base_pos[:2], axis=1))), 2)
     return rec
 
