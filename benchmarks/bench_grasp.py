@@ -46,6 +46,10 @@ def main() -> int:
     ap.add_argument("--no-fine-map", action="store_true", help="check near the target on the 1 cm map only")
     ap.add_argument("--inspect-views", type=int, default=None,
                     help="grasp-aware INSPECT views before the selection (default: InspectConfig's; 0: off)")
+    ap.add_argument("--no-near-scan", action="store_true",
+                    help="no greedy near-field scan (sim.near_field); the old harness's map")
+    ap.add_argument("--near-body-free", action="store_true",
+                    help="take the unknown space links 0-4 sweep near home as free (the old assumption)")
     args = ap.parse_args()
     inspect = InspectConfig() if args.inspect_views is None else InspectConfig(n_views=args.inspect_views)
     variants = [v == "on" for v in args.variants.split(",")]
@@ -55,7 +59,8 @@ def main() -> int:
             scene = certified_scene(level, index, args.seed).scene
             for constrained in variants:
                 config = GraspOnlyConfig(select=GraspSelectConfig(constrained=constrained), fine_map=not args.no_fine_map,
-                                         inspect=inspect)
+                                         inspect=inspect, near_body_free=args.near_body_free,
+                                         **({"near_field_scan": None} if args.no_near_scan else {}))
                 t0 = time.perf_counter()
                 r = run_grasp_only(scene, config, seed=args.seed)
                 rec = trial_record(level, index, constrained, r, time.perf_counter() - t0)

@@ -36,6 +36,7 @@ from ..trial.grasp_views import GraspInspector
 from ..trial.inspect import InspectConfig
 from .grasp_exec import GraspExecConfig, GraspOutcome, execute_grasp
 from .grasp_inspect import HarnessModel, inspect_views
+from .near_field import NearFieldScanConfig, near_field_scan
 from .scenes import SceneSpec
 from .world import World
 
@@ -53,7 +54,10 @@ class GraspOnlyConfig:
     field_upsample x the map's resolution in a box fine_margin [m] around the target's points
     (`grasp.field.local_fine_map`), the grasp's hand checks near the target use its labels;
     inspect: the trial's grasp-aware INSPECT views before the selection (`sim.grasp_inspect`;
-    n_views=0: off)."""
+    n_views=0: off); near_field_scan: greedy views of the unknown space around the body after
+    the near_field_views random ones (`sim.near_field`; None: off); near_body_free: take the
+    unknown space links 0-4 sweep near home as free (`near_body_unknown`; off by default since
+    the scan: that assumption let two transfers touch a base obstacle)."""
 
     n_view_samples: int = 80
     view_distance: tuple[float, float] = (0.25, 0.5)
@@ -62,7 +66,8 @@ class GraspOnlyConfig:
     view_sweep: bool = True
     path_frames: int = 6
     near_field_views: int = 24
-    near_body_free: bool = True
+    near_field_scan: NearFieldScanConfig | None = field(default_factory=NearFieldScanConfig)
+    near_body_free: bool = False
     explore_views: int = 12
     explore_path_frames: int = 2
     carve_margin: float = 0.02
@@ -253,6 +258,17 @@ def run_grasp_only(scene: SceneSpec, config: GraspOnlyConfig | None = None, seed
             frames.append(world.render(q, rgb=False, seg=False))
             m = max(1, int(np.ceil(np.max(np.abs(q - q_home)) / 0.1)))
             went([q_home + (q - q_home) * k / m for k in range(m + 1)])
+        n_done = 0
+        if config.near_field_scan is not None:  # greedy views of the unknown space around the body
+            for f in frames:
+                integrate_observation(occ, f, spheres, world.camera.depth_max)
+            n_done = len(frames)
+            scan_frames, scan_views = near_field_scan(world, occ, spheres, rng, config.near_field_scan)
+            for q in scan_views:
+                m = max(1, int(np.ceil(np.max(np.abs(q - q_home)) / 0.05)))
+                went([q_home + (q - q_home) * k / m for k in range(m + 1)])
+            frames += scan_frames
+            n_done = len(frames)
         for q in reached[: config.explore_views]:
             if np.array_equal(q, q_view):
                 continue
@@ -270,7 +286,7 @@ def run_grasp_only(scene: SceneSpec, config: GraspOnlyConfig | None = None, seed
             sweep = wrist_sweep(q_view, n=6, amplitude=0.4)
             frames += [world.render(q, rgb=False, seg=False) for q in sweep[1:-1]]
             went(sweep)
-        for f in frames:
+        for f in frames[n_done:]:
             integrate_observation(occ, f, spheres, world.camera.depth_max)
         points = oracle_detection(world, view)
         map_time = time.perf_counter() - t0
