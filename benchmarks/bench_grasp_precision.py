@@ -39,9 +39,12 @@ from compass_manip.grasp.select import GraspSelectConfig, base_volume_mask
 from compass_manip.motion.primitives import primitives_distance
 from compass_manip.robot.ik import PandaIK
 from compass_manip.robot.spheres import panda_sphere_model
-from compass_manip.sim import grasp_only, oracle
+from compass_manip.sim import oracle
 from compass_manip.sim.certify import certified_scene
 from compass_manip.sim.world import World
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from diag_grasp_certified import capture_inputs  # noqa: E402 (the harness's inputs to select_grasp)
 
 
 @njit(cache=True)
@@ -108,20 +111,7 @@ def fully_observed(scene, spheres, poses, u: int = 2) -> tuple[int, int]:
 
 def from_depth(scene, spheres, poses, seed: int) -> tuple[int, int] | None:
     """Accepted poses on the harness's depth maps without / with its fine local map."""
-    box = {}
-
-    def capture(target, occ, task, q, sph, config, rng, safe_spheres=None, extra_safe=None, fine_map=None):
-        box.update(target=target, occ=occ, q=q, extra=extra_safe, fine=fine_map)
-        raise StopIteration
-
-    orig = grasp_only.select_grasp
-    grasp_only.select_grasp = capture
-    try:
-        grasp_only.run_grasp_only(scene, seed=seed)
-    except StopIteration:
-        pass
-    finally:
-        grasp_only.select_grasp = orig
+    box = capture_inputs(scene, seed)
     if not box:
         return None
     cfg = GraspSelectConfig()

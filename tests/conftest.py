@@ -99,3 +99,14 @@ def mujoco_penetrating_states(scene, Q, finger_width) -> int:
                 n += 1
                 break
     return n
+
+
+@pytest.fixture(scope="module")
+def level4_world():
+    """The simulator of the default set's Level-4 scene 0 (seed 0), shared by a test module."""
+    from compass_manip.sim.certify import certified_scene
+    from compass_manip.sim.world import World
+
+    w = World(certified_scene(4, 0, 0).scene)
+    yield w
+    w.close()

@@ -4,16 +4,13 @@ import numpy as np
 import pytest
 
 from compass_manip.robot.model import Q_HOME
-from compass_manip.sim.certify import certified_scene
 from compass_manip.sim.rgbd import cull_outside_view, view_planes, zbuffer_to_depth
-from compass_manip.sim.world import LABEL_ROBOT, World
+from compass_manip.sim.world import LABEL_ROBOT
 
 
 @pytest.fixture(scope="module")
-def world():
-    w = World(certified_scene(4, 0, 0).scene)
-    yield w
-    w.close()
+def world(level4_world):
+    return level4_world
 
 
 def test_one_pass_equals_two_passes(world):

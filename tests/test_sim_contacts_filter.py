@@ -6,7 +6,6 @@ import numpy as np
 import pytest
 
 from compass_manip.robot.model import Q_HOME
-from compass_manip.sim.certify import certified_scene
 from compass_manip.sim.world import Contact, World
 
 
@@ -30,10 +29,8 @@ def _one_by_one(world: World, include_self: bool) -> list[Contact]:
 
 
 @pytest.fixture(scope="module")
-def world():
-    w = World(certified_scene(4, 0, 0).scene)
-    yield w
-    w.close()
+def world(level4_world):
+    return level4_world
 
 
 def test_array_filter_equals_one_by_one(world):
