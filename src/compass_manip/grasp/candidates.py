@@ -13,6 +13,7 @@ both ways round (the fingers are symmetric; the wrist camera on one side of the 
 """
 from __future__ import annotations
 
+import inspect
 from dataclasses import dataclass
 from typing import Protocol
 
@@ -116,6 +117,15 @@ class GraspProposer(Protocol):
 
     def propose(self, target: TargetModel, rng: np.random.Generator,
                 toward: np.ndarray | None = None, max_angle: float | None = None) -> GraspCandidates: ...
+
+
+def propose_in_cone(proposer: GraspProposer, target: TargetModel, rng: np.random.Generator, toward: np.ndarray,
+                    max_angle: float) -> GraspCandidates:
+    """The proposer's candidates, asking for approaches within max_angle [rad] of toward (3,)
+    when its `propose` accepts those keywords (a proposer without them proposes freely)."""
+    if "toward" in inspect.signature(proposer.propose).parameters:
+        return proposer.propose(target, rng, toward=toward, max_angle=max_angle)
+    return proposer.propose(target, rng)
 
 
 class AntipodalProposer:

@@ -94,6 +94,37 @@ def _hand_clear(dist, grid_min, res, T, C, r, half):
     return out
 
 
+def first_clear(field: DistanceField, T_world_tcp: np.ndarray, local: tuple[np.ndarray, np.ndarray],
+                steps, voxel_extent: bool = True) -> np.ndarray:
+    """(M,) per TCP pose (M,4,4) the value of the first step (value, back [m], up [m],
+    fractions) whose hand poses all clear unsafe space (`hand_clear`): the TCP moved by
+    f * back along its approach and f * up along world z, for every f of fractions; NaN
+    where no step does. `pregrasp_steps` / `lift_steps` give the selection's steps."""
+    T_all = np.asarray(T_world_tcp, dtype=np.float64).reshape(-1, 4, 4)
+    out = np.full(len(T_all), np.nan)
+    for value, back, up, fracs in steps:
+        todo = np.isnan(out)
+        ok = np.ones(int(todo.sum()), dtype=bool)
+        for f in fracs:
+            T = T_all[todo].copy()
+            T[:, :3, 3] += f * back * T[:, :3, 2] + np.array([0.0, 0.0, f * up])
+            ok &= hand_clear(field, T, local, voxel_extent)
+        out[np.nonzero(todo)[0][ok]] = value
+    return out
+
+
+def pregrasp_steps(distances) -> list:
+    """`first_clear` steps of the straight approach: each pre-grasp distance d [m] (longest
+    first) checked at 1, 3/4, 1/2 and 1/4 of the way back along the approach."""
+    return [(d, -d, 0.0, (1.0, 0.75, 0.5, 0.25)) for d in distances]
+
+
+def lift_steps(heights) -> list:
+    """`first_clear` steps of the lift: each height h [m] (highest first) checked every
+    2.5 cm up to h and at h."""
+    return [(h, 0.0, h, (*(np.arange(0.025, h + 1e-9, 0.025) / max(h, 1e-9)), 1.0)) for h in heights]
+
+
 def offset_pose(T: np.ndarray, along_approach: float = 0.0, up: float = 0.0) -> np.ndarray:
     """T moved by along_approach [m] along its z and by up [m] along world z."""
     return make_T(T[:3, :3], T[:3, 3] + along_approach * T[:3, 2] + np.array([0.0, 0.0, up]))

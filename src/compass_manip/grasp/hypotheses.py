@@ -14,7 +14,6 @@ what a camera has to see before that grasp can pass. Nothing here reads ground t
 """
 from __future__ import annotations
 
-import inspect
 from dataclasses import dataclass
 
 import numpy as np
@@ -25,9 +24,9 @@ from ..mapping.occupancy import OccupancyMap, VoxelState
 from ..robot.ik import PandaIK
 from ..robot.spheres import SphereModel
 from ..task import Task
-from .candidates import AntipodalProposer, GraspProposer
+from .candidates import AntipodalProposer, GraspProposer, propose_in_cone
 from .carve import grasp_unsafe
-from .checks import GraspChecks, hand_clear, rigid_hand_spheres
+from .checks import GraspChecks, first_clear, hand_clear, lift_steps, pregrasp_steps, rigid_hand_spheres
 from .select import approach_angles, desired_approach
 from .target import TargetModel
 
@@ -78,21 +77,6 @@ class GraspHypothesis:
         return np.vstack([a, b])
 
 
-def _first_free(field_, T, local, steps, voxel_extent) -> np.ndarray:
-    """(M,) the first value in steps [(offset_back, offset_up, fractions)] whose hand poses
-    are all clear, NaN where none is."""
-    out = np.full(len(T), np.nan)
-    for value, back, up, fracs in steps:
-        todo = np.isnan(out)
-        ok = np.ones(int(todo.sum()), dtype=bool)
-        for f in fracs:
-            P = T[todo].copy()
-            P[:, :3, 3] += f * back * P[:, :3, 2] + np.array([0.0, 0.0, f * up])
-            ok &= hand_clear(field_, P, local, voxel_extent)
-        out[np.nonzero(todo)[0][ok]] = value
-    return out
-
-
 def _near_one(T: np.ndarray, kept: list, config: HypothesisConfig) -> bool:
     """True when the TCP pose T (4,4) nearly repeats a kept hypothesis (position and approach)."""
     for h in kept:
@@ -123,10 +107,7 @@ def grasp_hypotheses(target: TargetModel, occ: OccupancyMap, task: Task, q_curre
         optimistic = optimistic | np.asarray(extra_safe, dtype=bool)
     checks = GraspChecks(occ, target, spheres, ik, select_config, safe_spheres, optimistic, q_current)
     n = desired_approach(target, task)
-    if "toward" in inspect.signature(proposer.propose).parameters:
-        cands = proposer.propose(target, rng, toward=n, max_angle=select_config.max_approach_angle)
-    else:
-        cands = proposer.propose(target, rng)
+    cands = propose_in_cone(proposer, target, rng, n, select_config.max_approach_angle)
     if len(cands) == 0:
         return []
     idx = np.nonzero(approach_angles(cands, n) <= select_config.max_approach_angle)[0]
@@ -136,10 +117,9 @@ def grasp_hypotheses(target: TargetModel, occ: OccupancyMap, task: Task, q_curre
     ok = hand_clear(checks.fine, T, local, select_config.voxel_extent)
     stats["HAND_IN_COLLISION"] = int(np.count_nonzero(~ok))
     idx, T = idx[ok], T[ok]
-    pre = _first_free(checks.fine, T, local, [(d, -d, 0.0, (1.0, 0.75, 0.5, 0.25))
-                                              for d in select_config.pregrasp_distances], select_config.voxel_extent)
-    lift = _first_free(checks.fine, T, local, [(h, 0.0, h, [*(np.arange(0.025, h + 1e-9, 0.025) / max(h, 1e-9)), 1.0])
-                                               for h in select_config.lift_heights], select_config.voxel_extent)
+    pre = first_clear(checks.fine, T, local, pregrasp_steps(select_config.pregrasp_distances),
+                      select_config.voxel_extent)
+    lift = first_clear(checks.fine, T, local, lift_steps(select_config.lift_heights), select_config.voxel_extent)
     keep = ~np.isnan(pre) & ~np.isnan(lift)
     stats["HAND_APPROACH_BLOCKED"] = int(np.count_nonzero(np.isnan(pre)))
     stats["HAND_LIFT_BLOCKED"] = int(np.count_nonzero(~np.isnan(pre) & np.isnan(lift)))

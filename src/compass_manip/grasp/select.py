@@ -19,7 +19,6 @@ not checked.
 """
 from __future__ import annotations
 
-import inspect
 import math
 import time
 from collections import Counter
@@ -38,9 +37,10 @@ from ..robot.ik import PandaIK
 from ..robot.model import check_q
 from ..robot.spheres import SphereModel
 from ..task import Task
-from .candidates import AntipodalProposer, CandidateConfig, GraspCandidates, GraspProposer
+from .candidates import AntipodalProposer, CandidateConfig, GraspCandidates, GraspProposer, propose_in_cone
 from .carve import grasp_field
-from .checks import GraspChecks, hand_clear, offset_pose, rigid_hand_spheres  # noqa: F401 (re-exported)
+from .checks import (GraspChecks, first_clear, hand_clear, lift_steps, offset_pose,  # noqa: F401 (re-exported)
+                     pregrasp_steps, rigid_hand_spheres)
 from .robot_space import base_volume, base_volume_mask  # noqa: F401 (re-exported)
 from .target import TargetModel
 
@@ -236,11 +236,9 @@ def select_grasp(target: TargetModel, occ: OccupancyMap, task: Task, q_current: 
     field_, checker = checks.fine, checks.full
     stages = dict(checks.times)
     t_stage = time.perf_counter()
-    if config.constrained and "toward" in inspect.signature(proposer.propose).parameters:
-        # sample approaches only inside the cone the constraint allows
-        cands = proposer.propose(target, rng, toward=n, max_angle=config.max_approach_angle)
-    else:
-        cands = proposer.propose(target, rng)
+    # with the constraints, sample approaches only inside the cone they allow
+    cands = propose_in_cone(proposer, target, rng, n, config.max_approach_angle) if config.constrained \
+        else proposer.propose(target, rng)
     stages["candidates_s"] = time.perf_counter() - t_stage
     t_stage = time.perf_counter()
     rejections: Counter = Counter()
@@ -304,33 +302,16 @@ def select_grasp(target: TargetModel, occ: OccupancyMap, task: Task, q_current: 
     rejections[Rejection.APPROACH_ANGLE] = len(cands) - len(within)
     if len(within) == 0:
         return done(GraspFailure.NO_APPROACH)
-    local = rigid_hand_spheres(spheres)
-
-    def clear_at(idx, back, up):
-        T = cands.T_world_tcp[idx].copy()
-        T[:, :3, 3] += back * T[:, :3, 2] + np.array([0.0, 0.0, up])
-        return hand_clear(field_, T, local, config.voxel_extent)  # on the fine field near the target
-
-    ok = clear_at(within, 0.0, 0.0)
+    local = rigid_hand_spheres(spheres)  # the checks run on the fine field near the target
+    ok = hand_clear(field_, cands.T_world_tcp[within], local, config.voxel_extent)
     rejections[Rejection.HAND_IN_COLLISION] = int(np.count_nonzero(~ok))
     within = within[ok]
-    pre = np.full(len(within), np.nan)
-    for d in config.pregrasp_distances:  # the first (longest) free straight approach
-        todo = np.isnan(pre)
-        ok = np.ones(int(todo.sum()), dtype=bool)
-        for f in (1.0, 0.75, 0.5, 0.25):
-            ok &= clear_at(within[todo], -f * d, 0.0)
-        pre[np.nonzero(todo)[0][ok]] = d
+    # the first (longest) free straight approach, then the first (highest) free lift
+    pre = first_clear(field_, cands.T_world_tcp[within], local, pregrasp_steps(config.pregrasp_distances),
+                      config.voxel_extent)
     rejections[Rejection.HAND_APPROACH_BLOCKED] = int(np.count_nonzero(np.isnan(pre)))
     within, pre = within[~np.isnan(pre)], pre[~np.isnan(pre)]
-    lift = np.full(len(within), np.nan)
-    for h in config.lift_heights:  # the first (highest) free lift
-        todo = np.isnan(lift)
-        ok = np.ones(int(todo.sum()), dtype=bool)
-        for f in np.arange(0.025, h + 1e-9, 0.025) / max(h, 1e-9):
-            ok &= clear_at(within[todo], 0.0, f * h)
-        ok &= clear_at(within[todo], 0.0, h)
-        lift[np.nonzero(todo)[0][ok]] = h
+    lift = first_clear(field_, cands.T_world_tcp[within], local, lift_steps(config.lift_heights), config.voxel_extent)
     rejections[Rejection.HAND_LIFT_BLOCKED] = int(np.count_nonzero(np.isnan(lift)))
     keep = ~np.isnan(lift)
     pre_of[within[keep]], lift_of[within[keep]] = pre[keep], lift[keep]
