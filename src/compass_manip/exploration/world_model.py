@@ -136,6 +136,27 @@ def outside_space_mask(occ: OccupancyMap, task, margin: float, floor_margin: flo
     return ~inside & (c[..., 2] > task.floor_z + floor_margin)
 
 
+def mark_configs(mask: np.ndarray, occ: OccupancyMap, spheres, Q: np.ndarray, margin: float) -> None:
+    """Set the voxels of mask (occ's grid) inside the robot's spheres, grown by margin [m],
+    at every configuration of Q (m, 7) [rad] (`mark_spheres`)."""
+    Q = np.asarray(Q, dtype=np.float64).reshape(-1, 7)
+    c = np.ascontiguousarray(spheres.sphere_centers(Q).reshape(-1, 3))
+    mark_spheres(mask, occ.grid_min, occ.resolution, c, np.tile(spheres.radii + margin, len(Q)))
+
+
+def method_safe_voxels(occ: OccupancyMap, swept: np.ndarray, assumed_free: np.ndarray, obstacle_halo: float
+                       ) -> np.ndarray:
+    """(nx, ny, nz) bool: the voxels a method's validity checker takes as safe besides free
+    ones: the robot's swept space and the unknown space assumed free (outside the confined
+    space, `outside_space_mask`) farther than obstacle_halo [m] (L1) from a seen obstacle;
+    voxels seen occupied never count."""
+    occupied = occ.occupied_mask()
+    halo = int(round(obstacle_halo / occ.resolution))
+    if halo > 0 and assumed_free.any():
+        assumed_free = assumed_free & ~manhattan_dilate(occupied, halo)
+    return (swept | assumed_free) & ~occupied
+
+
 class WorldModel:
     """Occupancy map + swept space + validity checker of one trial (one per method)."""
 
@@ -172,9 +193,7 @@ class WorldModel:
         margin [m] (default swept_margin), as safe."""
         margin = self.config.swept_margin if margin is None else float(margin)
         Q = densify(np.asarray(path, dtype=np.float64).reshape(-1, 7), self.config.sweep_step)
-        c = self.spheres.sphere_centers(Q).reshape(-1, 3)
-        r = np.tile(self.spheres.radii + margin, len(Q))
-        mark_spheres(self.swept, self.occ.grid_min, self.occ.resolution, np.ascontiguousarray(c), r)
+        mark_configs(self.swept, self.occ, self.spheres, Q, margin)
         self.q = np.asarray(path, dtype=np.float64).reshape(-1, 7)[-1].copy()
         self._checker = None
 
@@ -183,12 +202,7 @@ class WorldModel:
         """Validity against the current map (unknown unsafe, swept space safe); cached
         until the next observation or executed path."""
         if self._checker is None:
-            occupied = self.occ.occupied_mask()
-            assumed = self.assumed_free
-            halo = int(round(self.config.obstacle_halo / self.occ.resolution))
-            if halo > 0 and assumed.any():
-                assumed = assumed & ~manhattan_dilate(occupied, halo)
-            safe = (self.swept | assumed) & ~occupied  # seen obstacles always count
+            safe = method_safe_voxels(self.occ, self.swept, self.assumed_free, self.config.obstacle_halo)
             field_ = DistanceField.from_map(self.occ, safe_voxels=safe)
             self._checker = self._checker_for(DistanceGrid.from_distance_field(field_))
         return self._checker

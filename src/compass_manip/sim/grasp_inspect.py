@@ -15,8 +15,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..exploration.world_model import WorldModelConfig, manhattan_dilate, mark_spheres, outside_space_mask
-from ..mapping.distance import DistanceField, unsafe_mask
+from ..exploration.world_model import WorldModelConfig, mark_configs, method_safe_voxels, outside_space_mask
+from ..mapping.distance import DistanceField
 from ..mapping.observe import integrate_observation
 from ..mapping.occupancy import OccupancyMap, VoxelState
 from ..motion.primitives import DistanceGrid
@@ -39,10 +39,7 @@ class HarnessModel:
 
     def add_swept(self, Q: np.ndarray) -> None:
         """Mark the spheres of configurations Q (m,7) [rad], grown by margin, as the robot's."""
-        Q = np.asarray(Q, dtype=np.float64).reshape(-1, 7)
-        C = np.ascontiguousarray(self.spheres.sphere_centers(Q).reshape(-1, 3))
-        mark_spheres(self.swept_all, self.occ.grid_min, self.occ.resolution, C,
-                     np.tile(self.spheres.radii + self.config.swept_margin, len(Q)))
+        mark_configs(self.swept_all, self.occ, self.spheres, Q, self.config.swept_margin)
         self._checker = None
 
     @property
@@ -52,11 +49,8 @@ class HarnessModel:
     @property
     def checker(self) -> ValidityChecker:
         if self._checker is None:  # the trial's method's rules (`WorldModel.checker`)
-            occupied = self.occ.occupied_mask()
-            halo = int(round(self.config.obstacle_halo / self.occ.resolution))
-            assumed = self.assumed_free & ~manhattan_dilate(occupied, halo) if halo > 0 else self.assumed_free
-            unsafe = unsafe_mask(self.occ, safe_voxels=(self.swept_all | assumed) & ~occupied)
-            field_ = DistanceField.from_unsafe(unsafe, self.occ.grid_min, self.occ.resolution)
+            safe = method_safe_voxels(self.occ, self.swept_all, self.assumed_free, self.config.obstacle_halo)
+            field_ = DistanceField.from_map(self.occ, safe_voxels=safe)
             self._checker = ValidityChecker(self.spheres, grid=DistanceGrid.from_distance_field(field_),
                                             config=self.config.validity)
         return self._checker

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..exploration.world_model import mark_spheres
+from ..exploration.world_model import mark_configs
 from ..mapping.observe import integrate_observation
 from ..mapping.occupancy import MapConfig, OccupancyMap, VoxelState
 from ..motion.timing import densify
@@ -36,9 +36,7 @@ class GraspMap(TrialObserver):
         self.swept_all = np.zeros(self.occ.shape, bool)
 
     def _mark(self, Q: np.ndarray, margin: float) -> None:
-        C = np.ascontiguousarray(self.spheres.sphere_centers(np.asarray(Q, dtype=np.float64).reshape(-1, 7)))
-        mark_spheres(self.swept_all, self.occ.grid_min, self.occ.resolution, C.reshape(-1, 3),
-                     np.tile(self.spheres.radii + margin, len(C)))
+        mark_configs(self.swept_all, self.occ, self.spheres, Q, margin)
 
     @property
     def swept(self) -> np.ndarray:
