@@ -36,7 +36,7 @@ from ..trial.grasp_views import GraspInspector
 from ..trial.inspect import InspectConfig
 from .grasp_exec import GraspExecConfig, GraspOutcome, execute_grasp
 from .grasp_inspect import HarnessModel, inspect_views
-from .near_field import NearFieldScanConfig, near_field_scan
+from .near_field import NearFieldScanConfig, near_field_scan, straight_free
 from .scenes import SceneSpec
 from .world import World
 
@@ -131,11 +131,6 @@ class GraspOnlyResult:
         }
 
 
-def _straight_free(world: World, q0: np.ndarray, q1: np.ndarray, step: float = 0.02) -> bool:
-    n = max(1, int(np.ceil(np.max(np.abs(q1 - q0)) / step)))
-    return not any(world.in_collision(q0 + (q1 - q0) * k / n, GRIPPER_MAX_WIDTH) for k in range(n + 1))
-
-
 def oracle_view(world: World, rng: np.random.Generator, config: GraspOnlyConfig,
                 reached: list | None = None) -> tuple[np.ndarray | None, float]:
     """ORACLE START (ground truth): the best-seeing of sampled reachable, collision-free
@@ -160,7 +155,7 @@ def oracle_view(world: World, rng: np.random.Generator, config: GraspOnlyConfig,
         T = look_at(eye, aim) @ make_T(rot_z(rng.uniform(-np.pi, np.pi)))
         sols = ik_camera(T, q_home, n_q7=6).solutions
         for q in sols[:2]:
-            if world.in_collision(q, GRIPPER_MAX_WIDTH) or not _straight_free(world, q_home, q):
+            if world.in_collision(q, GRIPPER_MAX_WIDTH) or not straight_free(world, q_home, q, 0.02):
                 continue
             vis = world.target_visibility(q)
             if reached is not None:
@@ -193,7 +188,7 @@ def near_field_configs(world: World, rng: np.random.Generator, n: int) -> list[n
         q = np.clip(q, Q_MIN + 1e-3, Q_MAX - 1e-3)
         q[5] = rng.uniform(0.3, 3.6)
         q[6] = rng.uniform(-2.5, 2.5)
-        if not world.in_collision(q, GRIPPER_MAX_WIDTH) and _straight_free(world, q_home, q, 0.05):
+        if not world.in_collision(q, GRIPPER_MAX_WIDTH) and straight_free(world, q_home, q, 0.05):
             out.append(q)
         if len(out) >= n:
             break
