@@ -157,10 +157,11 @@ class AppearanceDetector:
         nrm, nok = region_normals(pts, sl)  # the region's window only (same values as the whole image's)
         inner = ndimage.binary_erosion(sub, iterations=2)
         ir, ic = np.nonzero(inner & nok)
-        shape = classify_shape(nrm[ir, ic], pts[sl][ir, ic], obs.T_world_cam[:3, 3], config)
+        inner_pts = pts[sl][ir, ic]
+        shape = classify_shape(nrm[ir, ic], inner_pts, obs.T_world_cam[:3, 3], config)
         ext = upright_extents(P)
         a, b, c = (float(v) for v in query.size)
-        if shape == "round" and not curved_like(pts[sl][ir, ic], 0.5 * min(a, b), ext[0], config.min_curvature_ratio):
+        if shape == "round" and not curved_like(inner_pts, 0.5 * min(a, b), ext[0], config.min_curvature_ratio):
             shape = "box"  # normals spread by the region's edges, but the surface is a plane
         tol = 1.0 + config.size_tolerance
         too_big = ext[2] > c * tol + config.size_slack or ext[0] > math.hypot(a, b) * tol + config.size_slack
