@@ -20,7 +20,7 @@ import numpy as np
 
 from ..errors import CompassInputError
 from ..grasp.select import GraspFailure, GraspSelection, select_grasp
-from ..exploration.world_model import mark_spheres
+from ..exploration.world_model import mark_configs
 from ..grasp.target import build_target_model
 from ..mapping.occupancy import VoxelState
 from ..robot.spheres import panda_sphere_model
@@ -88,9 +88,7 @@ def run_grasp_stage(world, occupancy, detection, task, q_current: np.ndarray, mo
     if moved:  # the robot's way is its own space, except where a voxel was seen occupied since
         Q = np.vstack([np.asarray(p, dtype=np.float64).reshape(-1, 7) for p in moved])
         Q = Q[:: max(1, len(Q) // config.max_moved_configs)]
-        C = np.ascontiguousarray(spheres.sphere_centers(Q).reshape(-1, 3))
-        mark_spheres(extra, occupancy.grid_min, occupancy.resolution, C, np.tile(spheres.radii + config.moved_margin,
-                                                                                 len(Q)))
+        mark_configs(extra, occupancy, spheres, Q, config.moved_margin)
         extra &= occupancy.state != VoxelState.OCCUPIED
     if config.near_body_free:
         extra |= near_body_unknown(occupancy, spheres, np.asarray(world.robot.q_home))
