@@ -8,6 +8,20 @@ for every thread); `_apply` updates each marked voxel once and clears the scratc
 
 Marks: a voxel hit in the scan is marked HIT and never re-marked FREE, so hits win and
 every voxel is updated at most once per scan, as in OctoMap's `insertPointCloud`.
+
+Two departures from OctoMap's rule make free labels trustworthy for a collision checker
+that treats voxels as cubes (both optional, see `MapConfig`). OctoMap frees every voxel a
+ray's line crosses, so a voxel a wall or board fills in part is freed by rays through its
+empty part, and a few such misses flip a voxel once hit back to free:
+* surface guard: where a ray ends on a surface whose normal is known (from the depth
+  image), the voxels whose cube meets the surface's tangent plane at the end point are not
+  freed by the scan: along that ray (the last voxels before a hit at grazing incidence lie
+  in the surface) and within a few voxels of its hit voxel (`GUARD_RADIUS_MAX`) (rays that pass just
+  over a board's edge and end behind it cross voxels the board fills in part, next to where
+  their neighbours hit it); and a ray that passes within half a voxel diagonal of an
+  occluding edge (a nearer neighbour pixel) frees nothing behind the edge's depth: the
+  object goes on unseen behind its edge, in the voxels beside the ray;
+* sticky hits: a voxel hit in `sticky` scans stays occupied; later misses do not lower it.
 """
 from __future__ import annotations
 
@@ -21,6 +35,13 @@ from .raycast import FREE, KIND_INVALID, KIND_POINT, OCCUPIED, ray_setup
 _MARK_NONE = np.uint8(0)
 _MARK_FREE = np.uint8(1)
 _MARK_HIT = np.uint8(2)
+_MARK_GUARD = np.uint8(3)  # not freed by this scan (surface guard), not hit either
+
+#: The surface guard's patch: the voxels within R = 2 + floor(0.75 spacing / res) voxels of a
+#: hit voxel (spacing: of the neighbouring samples on the surface; R at most this) that meet
+#: the hit's tangent plane are not freed by the scan, so the patches of neighbouring hits
+#: close up also where grazing incidence spreads the samples apart.
+GUARD_RADIUS_MAX = 4
 
 #: Trace in parallel only from this many rays on.
 PARALLEL_MIN_RAYS = 4096
@@ -28,7 +49,7 @@ PARALLEL_MIN_RAYS = 4096
 
 def integrate_scan(
     logodds, state, mark, row_dirty, claim, origin, points, kind, max_range, k0, res,
-    logs, grouping, n_workers,
+    logs, grouping, n_workers, normals, hits, sticky,
 ):
     """Integrate one scan into the log-odds grid with OctoMap's update rule.
 
@@ -44,14 +65,20 @@ def integrate_scan(
     {1, 2} traces, among the rays whose end points fall in the same cell of edge res / g
     (for rays ending outside the grid: whose grid exit points fall in the same cell of
     edge res / 2), only the first one's free space; hits still come from every ray.
+    normals (N, 5): per ray `raycast.depth_cues` (the unit surface normal at its end point
+    or NaN, the spacing [m] of the samples there, the range [m] up to which it frees space),
+    or an empty (0, 5) array: no surface guard. hits (nx, ny, nz) uint8: the
+    number of scans that hit each voxel (saturating), updated in place; sticky >= 1: a voxel
+    hit in that many scans is occupied for good (0: OctoMap's rule).
     Returns (voxels updated as free, voxels updated as occupied, rays traced).
     """
-    cast, claimed, n_cast = _prepare(mark, row_dirty, claim, origin, points, kind, max_range, k0, res, grouping)
+    cast, claimed, n_cast = _prepare(mark, row_dirty, claim, origin, points, kind, max_range, k0, res, grouping,
+                                     normals)
     if n_workers > 1 and n_cast >= PARALLEL_MIN_RAYS:
-        _trace_parallel(mark, row_dirty, origin, points, kind, cast, n_cast, max_range, k0, res, n_workers)
+        _trace_parallel(mark, row_dirty, origin, points, kind, cast, n_cast, max_range, k0, res, normals, n_workers)
     else:
-        _trace_serial(mark, row_dirty, origin, points, kind, cast, n_cast, max_range, k0, res)
-    n_free, n_hit = _apply(logodds, state, mark, row_dirty, claim, claimed, n_cast, *logs)
+        _trace_serial(mark, row_dirty, origin, points, kind, cast, n_cast, max_range, k0, res, normals)
+    n_free, n_hit = _apply(logodds, state, mark, row_dirty, claim, claimed, n_cast, hits, sticky, *logs)
     return int(n_free), int(n_hit), int(n_cast)
 
 
@@ -101,9 +128,45 @@ def _grid_cell_point(gx, gy, gz, ex, ey, ez, nx, ny, nz):
             min(max(gz + dz * t, 0.0), nz - top), True, False)
 
 
+@njit(cache=True, inline="always")
+def _guard_patch(mk, row_dirty, ix, iy, iz, p0, p1, p2, n0, n1, n2, R, nx, ny, nz):
+    """Mark GUARD the unmarked voxels within R voxels of voxel (ix, iy, iz) whose cube meets
+    the plane through p (grid units) with unit normal n: over the two axes where n is
+    smaller, the few voxels along the third whose centre lies within the cube's reach."""
+    ext = 0.5 * (abs(n0) + abs(n1) + abs(n2))
+    i_c = (ix, iy, iz)
+    p = (p0, p1, p2)
+    nv = (n0, n1, n2)
+    dims = (nx, ny, nz)
+    a = 0  # the axis where |n| is largest
+    if abs(n1) > abs(nv[a]):
+        a = 1
+    if abs(n2) > abs(nv[a]):
+        a = 2
+    b, c = (a + 1) % 3, (a + 2) % 3
+    half = ext / abs(nv[a])
+    idx = np.empty(3, np.int64)
+    for kb in range(max(0, i_c[b] - R), min(dims[b], i_c[b] + R + 1)):
+        for kc in range(max(0, i_c[c] - R), min(dims[c], i_c[c] + R + 1)):
+            # the plane's coordinate along axis a above the centre of cell (kb, kc)
+            za = p[a] - (nv[b] * (kb + 0.5 - p[b]) + nv[c] * (kc + 0.5 - p[c])) / nv[a]
+            lo = max(max(0, i_c[a] - R), int(math.ceil(za - half - 0.5)))
+            hi = min(min(dims[a] - 1, i_c[a] + R), int(math.floor(za + half - 0.5)))
+            idx[b] = kb
+            idx[c] = kc
+            for ka in range(lo, hi + 1):
+                idx[a] = ka
+                row = idx[0] * ny + idx[1]
+                lin = row * nz + idx[2]
+                if mk[lin] == _MARK_NONE:
+                    mk[lin] = _MARK_GUARD
+                    row_dirty[row] = 1
+
+
 @njit(cache=True)
-def _prepare(mark, row_dirty, claim, origin, points, kind, max_range, k0, res, grouping):
-    """Mark hit voxels; return the rays to trace, the cell each claimed (-1: none), count."""
+def _prepare(mark, row_dirty, claim, origin, points, kind, max_range, k0, res, grouping, normals):
+    """Mark hit voxels (and the surface guard's patches); return the rays to trace, the cell
+    each claimed (-1: none), count."""
     nx, ny, nz = mark.shape
     mk = mark.reshape(-1)
     cl = claim.reshape(-1)
@@ -127,6 +190,10 @@ def _prepare(mark, row_dirty, claim, origin, points, kind, max_range, k0, res, g
                 row = ix * ny + iy
                 mk[row * nz + iz] = _MARK_HIT
                 row_dirty[row] = 1
+                if normals.shape[0] > 0 and not math.isnan(normals[i, 0]):
+                    R = min(GUARD_RADIUS_MAX, 2 + int(0.75 * normals[i, 3] * inv_res))
+                    _guard_patch(mk, row_dirty, ix, iy, iz, ex * inv_res - k0[0], ey * inv_res - k0[1],
+                                 ez * inv_res - k0[2], normals[i, 0], normals[i, 1], normals[i, 2], R, nx, ny, nz)
         lin = -1
         if grouping > 0:
             cx, cy, cz, ok, inside = _grid_cell_point(
@@ -152,8 +219,10 @@ def _prepare(mark, row_dirty, claim, origin, points, kind, max_range, k0, res, g
 
 
 @njit(cache=True, inline="always")
-def _trace_block(mark, row_dirty, origin, points, kind, cast, c0, c1, max_range, k0, res):
-    """Mark FREE every unmarked voxel crossed by rays cast[c0:c1] before their end voxel."""
+def _trace_block(mark, row_dirty, origin, points, kind, cast, c0, c1, max_range, k0, res, normals):
+    """Mark FREE every unmarked voxel crossed by rays cast[c0:c1] before their end voxel,
+    except (surface guard, when normals has a row per ray) the voxels whose cube meets the
+    plane through a hit end point with that ray's normal."""
     nx, ny, nz = mark.shape
     mk = mark.reshape(-1)
     inv_res = 1.0 / res
@@ -170,12 +239,30 @@ def _trace_block(mark, row_dirty, origin, points, kind, cast, c0, c1, max_range,
         )
         if not ok:
             continue
+        # the surface guard's plane n . (c - p) = 0 in grid units; a cube of edge 1 centred at c
+        # meets it when |n . (c - p)| <= (|n0| + |n1| + |n2|) / 2
+        guard = hit and normals.shape[0] > 0 and not math.isnan(normals[cast[c], 0])
+        n0 = n1 = n2 = ext = 0.0
+        p0 = p1 = p2 = 0.0
+        if guard:
+            n0, n1, n2 = normals[cast[c], 0], normals[cast[c], 1], normals[cast[c], 2]
+            ext = 0.5 * (abs(n0) + abs(n1) + abs(n2))
+            p0 = ex * inv_res - k0[0] - 0.5
+            p1 = ey * inv_res - k0[1] - 0.5
+            p2 = ez * inv_res - k0[2] - 0.5
+        t_stop = 2.0  # segment parameter beyond which the ray frees nothing (shadow of an edge)
+        if normals.shape[0] > 0 and normals[cast[c], 4] < 1e30:
+            L = math.sqrt((ex - origin[0]) ** 2 + (ey - origin[1]) ** 2 + (ez - origin[2]) ** 2)
+            t_stop = normals[cast[c], 4] / max(L, 1e-12)
         row = ix * ny + iy
         lin = row * nz + iz
         for _ in range(n_steps):
-            m = mk[lin]
-            mk[lin] = m | np.uint8(m == _MARK_NONE)  # branch-free: NONE -> FREE, others stay
-            row_dirty[row] = 1
+            if min(tmx, min(tmy, tmz)) > t_stop:  # this voxel reaches behind the edge's depth
+                break
+            if not guard or abs(n0 * (ix - p0) + n1 * (iy - p1) + n2 * (iz - p2)) > ext:
+                m = mk[lin]
+                mk[lin] = m | np.uint8(m == _MARK_NONE)  # branch-free: NONE -> FREE, others stay
+                row_dirty[row] = 1
             if tmx < tmy:
                 if tmx < tmz:
                     ix += sx
@@ -207,12 +294,12 @@ def _trace_block(mark, row_dirty, origin, points, kind, cast, c0, c1, max_range,
 
 
 @njit(cache=True)
-def _trace_serial(mark, row_dirty, origin, points, kind, cast, n_cast, max_range, k0, res):
-    _trace_block(mark, row_dirty, origin, points, kind, cast, 0, n_cast, max_range, k0, res)
+def _trace_serial(mark, row_dirty, origin, points, kind, cast, n_cast, max_range, k0, res, normals):
+    _trace_block(mark, row_dirty, origin, points, kind, cast, 0, n_cast, max_range, k0, res, normals)
 
 
 @njit(cache=True, parallel=True)
-def _trace_parallel(mark, row_dirty, origin, points, kind, cast, n_cast, max_range, k0, res, n_workers):
+def _trace_parallel(mark, row_dirty, origin, points, kind, cast, n_cast, max_range, k0, res, normals, n_workers):
     # interleaved blocks of rays so the workers share near and far parts of the image; the
     # only shared writes are idempotent (NONE -> FREE, dirty flags -> 1)
     block = 256
@@ -220,18 +307,20 @@ def _trace_parallel(mark, row_dirty, origin, points, kind, cast, n_cast, max_ran
     for w in prange(n_workers):
         for b in range(w, n_blocks, n_workers):
             _trace_block(mark, row_dirty, origin, points, kind, cast, b * block,
-                         min(n_cast, (b + 1) * block), max_range, k0, res)
+                         min(n_cast, (b + 1) * block), max_range, k0, res, normals)
 
 
 @njit(cache=True)
-def _apply(logodds, state, mark, row_dirty, claim, claimed, n_cast,
+def _apply(logodds, state, mark, row_dirty, claim, claimed, n_cast, hits, sticky,
            hit_log, miss_log, clamp_min_log, clamp_max_log, occ_log):
-    """Update each marked voxel once (float32 log-odds, clamped) and clear the scratch."""
+    """Update each marked voxel once (float32 log-odds, clamped) and clear the scratch; count
+    the hits per voxel, and keep a voxel hit in `sticky` (>= 1) scans occupied."""
     nx, ny, nz = logodds.shape
     lo_flat = logodds.reshape(-1)
     st_flat = state.reshape(-1)
     mk = mark.reshape(-1)
     cl = claim.reshape(-1)
+    hf = hits.reshape(-1)
     for c in range(n_cast):
         if claimed[c] >= 0:
             cl[claimed[c]] = 0
@@ -247,12 +336,22 @@ def _apply(logodds, state, mark, row_dirty, claim, claimed, n_cast,
             if m == _MARK_NONE:
                 continue
             mk[base + k] = _MARK_NONE
+            if m == _MARK_GUARD:
+                continue
             v = lo_flat[base + k]
+            h = hf[base + k]
             if m == _MARK_HIT:
                 v = v + hit_log
                 if v > clamp_max_log:
                     v = clamp_max_log
+                if h < 255:
+                    h += 1
+                    hf[base + k] = h
+                if sticky > 0 and h >= sticky and v < occ_log:
+                    v = occ_log
                 n_hit += 1
+            elif sticky > 0 and h >= sticky:
+                continue
             else:
                 v = v + miss_log
                 if v < clamp_min_log:

@@ -26,6 +26,8 @@ from ..geometry import check_intrinsics, check_rigid
 from . import raycast
 from .integration import integrate_scan
 
+_NO_NORMALS = np.zeros((0, 5))
+
 #: A self-filter: world points (N, 3) [m] -> bool (N,), True for points on the robot's body.
 PointFilter = Callable[[np.ndarray], np.ndarray]
 
@@ -58,6 +60,13 @@ class MapConfig:
     default: on the Level-4 benchmark frames 4-5x less CPU than 0, with 99.94 % of the
     workspace voxels and 99.6 % of the observed voxels labelled as OctoMap labels them
     (2: about 2x less CPU, 99.97 % / 99.8 %).
+    surface_guard: a ray ending on a surface whose normal the depth image gives (`integrate`)
+    frees no voxel whose cube meets the tangent plane at its end point, so the voxels a
+    grazing ray crosses just above a wall or board are not freed (OctoMap frees every voxel
+    the ray's line crosses, also one a board fills in part). sticky_hits k >= 1: a voxel hit
+    in k scans stays occupied, misses no longer lower it (a static scene; 0: OctoMap's rule,
+    where a few misses of rays through a voxel's empty part flip a once-hit voxel to free).
+    With both off the labels are OctoMap's (measured in docs/grasping.md, "Free space the grasp can trust").
     """
 
     box_min: tuple[float, float, float] = (-0.6, -0.8, -0.05)
@@ -70,6 +79,8 @@ class MapConfig:
     occupancy_threshold: float = 0.5
     pixel_stride: int = 1
     ray_grouping: int = 1
+    surface_guard: bool = True
+    sticky_hits: int = 1
 
     def __post_init__(self) -> None:
         lo = float_array(self.box_min, "MapConfig.box_min", "3 finite numbers [m]")
@@ -95,6 +106,10 @@ class MapConfig:
             raise CompassInputError(f"pixel_stride {self.pixel_stride} is not allowed; use an int 1..16")
         if isinstance(self.ray_grouping, bool) or not isinstance(self.ray_grouping, int) or self.ray_grouping not in (0, 1, 2):
             raise CompassInputError(f"ray_grouping {self.ray_grouping} is not allowed; use 0, 1 or 2")
+        if not isinstance(self.surface_guard, (bool, np.bool_)):
+            raise CompassInputError(f"surface_guard {self.surface_guard!r:.40} is not allowed; use True or False")
+        if isinstance(self.sticky_hits, bool) or not isinstance(self.sticky_hits, int) or not 0 <= self.sticky_hits <= 255:
+            raise CompassInputError(f"sticky_hits {self.sticky_hits!r:.40} is not allowed; use an int 0..255 (0: off)")
         n = np.ceil(hi / self.resolution - 1e-9) - np.floor(lo / self.resolution + 1e-9)
         if np.prod(n) > 2e8:
             raise CompassInputError(f"map of {n.astype(int)} voxels is too large; at most 2e8 voxels")
@@ -168,6 +183,8 @@ class OccupancyMap:
         self._mark = np.zeros(self.shape, np.uint8)
         self._row_dirty = np.zeros(self.shape[0] * self.shape[1], np.uint8)
         self._claim = np.zeros(self.shape, np.uint8)
+        #: scans that hit each voxel (saturating at 255), for `MapConfig.sticky_hits`
+        self.hits = np.zeros(self.shape, np.uint8)
         c = self.config
         self._logs = (
             _logit(c.prob_hit), _logit(c.prob_miss), _logit(c.clamp_min), _logit(c.clamp_max),
@@ -237,7 +254,14 @@ class OccupancyMap:
             np.ascontiguousarray(depth, dtype=np.float32), K[0, 0], K[1, 1], K[0, 2], K[1, 2],
             np.ascontiguousarray(T[:3, :3]), np.ascontiguousarray(T[:3, 3]), self.config.pixel_stride,
         )
-        return self._integrate(points, kind, T[:3, 3], max_range, point_filter)
+        normals = _NO_NORMALS
+        if self.config.surface_guard:
+            normals = raycast.depth_cues(
+                np.ascontiguousarray(depth, dtype=np.float32), K[0, 0], K[1, 1], K[0, 2], K[1, 2],
+                np.ascontiguousarray(T[:3, :3]), self.config.pixel_stride, 0.5 * self.resolution,
+                0.5 * math.sqrt(3.0) * self.resolution,
+            )
+        return self._integrate(points, kind, T[:3, 3], max_range, point_filter, normals)
 
     def integrate_points(
         self,
@@ -247,7 +271,8 @@ class OccupancyMap:
         point_filter: PointFilter | None = None,
     ) -> IntegrationStats:
         """Integrate measured world points (N, 3) [m] seen from origin_world (3,) [m]:
-        OctoMap's `insertPointCloud(points, origin, maxrange)` on this grid."""
+        OctoMap's `insertPointCloud(points, origin, maxrange)` on this grid (points carry no
+        surface normals: no surface guard; sticky hits apply)."""
         p = _float_array(points_world, "points_world")
         o = _float_array(origin_world, "origin_world")
         if p.ndim != 2 or p.shape[1] != 3 or not np.all(np.isfinite(p)):
@@ -257,9 +282,9 @@ class OccupancyMap:
         if not (isinstance(max_range, (int, float, np.floating, np.integer)) and max_range == math.inf):
             max_range = self._check_range(max_range)
         kind = np.full(len(p), raycast.KIND_POINT, np.uint8)
-        return self._integrate(np.ascontiguousarray(p), kind, o, max_range, point_filter)
+        return self._integrate(np.ascontiguousarray(p), kind, o, max_range, point_filter, _NO_NORMALS)
 
-    def _integrate(self, points, kind, origin, max_range, point_filter) -> IntegrationStats:
+    def _integrate(self, points, kind, origin, max_range, point_filter, normals) -> IntegrationStats:
         n_filtered = 0
         if point_filter is not None:
             measured = np.flatnonzero(kind == raycast.KIND_POINT)
@@ -274,7 +299,7 @@ class OccupancyMap:
             self.logodds, self.state, self._mark, self._row_dirty, self._claim,
             np.asarray(origin, dtype=np.float64), points, kind, float(min(max_range, 1e9)),
             self.grid_key_min, self.resolution, self._logs, self.config.ray_grouping,
-            numba.get_num_threads(),
+            numba.get_num_threads(), normals, self.hits, self.config.sticky_hits,
         )
         n_rays = int(np.count_nonzero(kind != raycast.KIND_INVALID))
         return IntegrationStats(n_rays, n_filtered, int(n_free), int(n_hit), int(n_traced))
@@ -300,6 +325,7 @@ class OccupancyMap:
         value = {VoxelState.UNKNOWN: 0.0, VoxelState.FREE: self._logs[2], VoxelState.OCCUPIED: self._logs[3]}[state]
         self.logodds[idx[:, 0], idx[:, 1], idx[:, 2]] = value
         self.state[idx[:, 0], idx[:, 1], idx[:, 2]] = int(state)
+        self.hits[idx[:, 0], idx[:, 1], idx[:, 2]] = 0  # a forced state is a prior, not a hit
 
     def set_box(self, box_min: np.ndarray, box_max: np.ndarray, state: VoxelState) -> None:
         """Force every voxel whose centre lies in the world box [box_min, box_max] [m] to a state."""
@@ -307,16 +333,19 @@ class OccupancyMap:
         value = {VoxelState.UNKNOWN: 0.0, VoxelState.FREE: self._logs[2], VoxelState.OCCUPIED: self._logs[3]}
         self.logodds[sl] = value[_voxel_state(state)]
         self.state[sl] = int(state)
+        self.hits[sl] = 0
 
     def reset(self) -> None:
         """Forget everything: all voxels unknown."""
         self.logodds[...] = 0.0
         self.state[...] = VoxelState.UNKNOWN
+        self.hits[...] = 0
 
     def copy(self) -> OccupancyMap:
         other = OccupancyMap(self.config)
         other.logodds[...] = self.logodds
         other.state[...] = self.state
+        other.hits[...] = self.hits
         return other
 
     # ----------------------------------------------------------------- queries

@@ -166,3 +166,104 @@ def backproject(depth, fx, fy, cx, cy, R_world_cam, t_world_cam, stride):
                     R_world_cam[a, 0] * xc + R_world_cam[a, 1] * yc + R_world_cam[a, 2]
                 )
     return points, kind
+
+
+@njit(cache=True, inline="always")
+def _cam_point(depth, u, v, fx, fy, cx, cy):
+    d = depth[v, u]
+    return (u - cx) / fx * d, (v - cy) / fy * d, d
+
+
+@njit(cache=True)
+def depth_cues(depth, fx, fy, cx, cy, R_world_cam, stride, max_jump, half_diag):
+    """What the depth image says about the surface at each pixel `backproject` returns (same
+    order and stride): (N, 5) columns n_x, n_y, n_z (unit normal in the world frame, sign
+    arbitrary), spacing [m] of the neighbouring samples on the surface (the longer of the two
+    tangents used), and shadow range [m]: how far along this pixel's ray free space is known
+    (+inf: to its end).
+
+    The normal comes from the measured points of the neighbouring sampled pixels: along u and
+    along v the neighbour with the smaller depth step (a surface does not continue across a
+    depth edge); NaN where the pixel or both neighbours on an axis are not finite depths, or
+    where the smaller step exceeds max_jump [m] plus the step of a surface at 88 deg to the
+    ray (30 pixel footprints). Shadows: a pixel with a neighbour farther by more than a depth
+    jump (max_jump plus 10 pixel footprints, or a no-return) is an occluding edge at depth
+    d_e; the object goes on, unseen, behind it. The rays of the farther pixels within
+    half_diag [m] of the edge at that depth (a voxel cube there may reach into the shadow)
+    end their known free space at depth d_e - half_diag."""
+    H, W = depth.shape
+    off = stride // 2
+    nu = (W - off + stride - 1) // stride
+    nv = (H - off + stride - 1) // stride
+    out = np.full((nu * nv, 5), np.nan)
+    out[:, 4] = np.inf
+    for jv in range(nv):
+        v = jv * stride + off
+        for ju in range(nu):
+            u = ju * stride + off
+            d = depth[v, u]
+            if not (d > 0.0 and d < np.inf):
+                continue
+            n = jv * nu + ju
+            px, py, pz = _cam_point(depth, u, v, fx, fy, cx, cy)
+            foot = d * stride / fx
+            jump = max_jump + 10.0 * foot
+            tol = max_jump + 30.0 * foot
+            t = np.zeros((2, 3))
+            ok = True
+            edge = False
+            for a in range(2):
+                best = np.inf
+                for sgn in (-1, 1):
+                    uu = u + sgn * stride * (1 - a)
+                    vv = v + sgn * stride * a
+                    if uu < 0 or uu >= W or vv < 0 or vv >= H:
+                        continue
+                    dd = depth[vv, uu]
+                    if dd > d + jump:  # also +inf (no return)
+                        edge = True
+                    if not (dd > 0.0 and dd < np.inf) or abs(dd - d) >= best:
+                        continue
+                    best = abs(dd - d)
+                    qx, qy, qz = _cam_point(depth, uu, vv, fx, fy, cx, cy)
+                    t[a, 0] = (qx - px) * sgn
+                    t[a, 1] = (qy - py) * sgn
+                    t[a, 2] = (qz - pz) * sgn
+                if best > tol:
+                    ok = False
+            if edge:
+                _shadow(depth, out, u, v, d, jump, half_diag, fx, fy, cx, cy, stride, off, nu, nv)
+            if not ok:
+                continue
+            n0 = t[0, 1] * t[1, 2] - t[0, 2] * t[1, 1]
+            n1 = t[0, 2] * t[1, 0] - t[0, 0] * t[1, 2]
+            n2 = t[0, 0] * t[1, 1] - t[0, 1] * t[1, 0]
+            s = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
+            if s == 0.0:
+                continue
+            for a in range(3):
+                out[n, a] = (R_world_cam[a, 0] * n0 + R_world_cam[a, 1] * n1 + R_world_cam[a, 2] * n2) / s
+            out[n, 3] = math.sqrt(max(t[0, 0] ** 2 + t[0, 1] ** 2 + t[0, 2] ** 2, t[1, 0] ** 2 + t[1, 1] ** 2
+                                      + t[1, 2] ** 2))
+    return out
+
+
+@njit(cache=True, inline="always")
+def _shadow(depth, out, u, v, d, jump, half_diag, fx, fy, cx, cy, stride, off, nu, nv):
+    """Limit the known free range of the rays beside the occluding edge pixel (u, v) at depth d."""
+    k = int(math.ceil(half_diag * fx / (d * stride)))  # pixels within half_diag of the edge at depth d
+    z_stop = max(d - half_diag, 0.0)
+    ju0, jv0 = (u - off) // stride, (v - off) // stride
+    for jv in range(max(0, jv0 - k), min(nv, jv0 + k + 1)):
+        vv = jv * stride + off
+        for ju in range(max(0, ju0 - k), min(nu, ju0 + k + 1)):
+            uu = ju * stride + off
+            dd = depth[vv, uu]
+            if not dd > d + jump:
+                continue
+            xc = (uu - cx) / fx
+            yc = (vv - cy) / fy
+            r = z_stop * math.sqrt(xc * xc + yc * yc + 1.0)
+            m = jv * nu + ju
+            if r < out[m, 4]:
+                out[m, 4] = r
