@@ -27,7 +27,9 @@ import numpy as np
 from compass_manip.bench.stats import emit_samples, emit_value, load_average
 from compass_manip.grasp.select import GraspSelectConfig
 from compass_manip.sim.certify import certified_scene
+from compass_manip.mapping.occupancy import MapConfig
 from compass_manip.sim.grasp_only import GraspOnlyConfig, run_grasp_only
+from compass_manip.sim.near_field import WIDE_SCAN
 from compass_manip.trial.inspect import InspectConfig
 
 
@@ -48,6 +50,10 @@ def main() -> int:
                     help="grasp-aware INSPECT views before the selection (default: InspectConfig's; 0: off)")
     ap.add_argument("--no-near-scan", action="store_true",
                     help="no greedy near-field scan (sim.near_field); the old harness's map")
+    ap.add_argument("--wide-scan", action="store_true",
+                    help="the wider near-field scan (sim.near_field.WIDE_SCAN: joint 1 within +-2.2 rad)")
+    ap.add_argument("--octomap-rule", action="store_true",
+                    help="the map with OctoMap's update rule (no surface guard, no sticky hits)")
     ap.add_argument("--near-body-free", action="store_true",
                     help="take the unknown space links 0-4 sweep near home as free (the old assumption)")
     args = ap.parse_args()
@@ -60,7 +66,10 @@ def main() -> int:
             for constrained in variants:
                 config = GraspOnlyConfig(select=GraspSelectConfig(constrained=constrained), fine_map=not args.no_fine_map,
                                          inspect=inspect, near_body_free=args.near_body_free,
-                                         **({"near_field_scan": None} if args.no_near_scan else {}))
+                                         map=MapConfig(surface_guard=False, sticky_hits=0) if args.octomap_rule
+                                         else MapConfig(),
+                                         **({"near_field_scan": None} if args.no_near_scan
+                                            else {"near_field_scan": WIDE_SCAN} if args.wide_scan else {}))
                 t0 = time.perf_counter()
                 r = run_grasp_only(scene, config, seed=args.seed)
                 rec = trial_record(level, index, constrained, r, time.perf_counter() - t0)

@@ -41,15 +41,14 @@ from compass_manip.robot.spheres import panda_sphere_model
 from compass_manip.sim import grasp_only, near_field, oracle
 from compass_manip.sim.certify import certified_scene
 from compass_manip.sim.grasp_only import GraspOnlyConfig
-from compass_manip.sim.near_field import NearFieldScanConfig
+from compass_manip.sim.near_field import WIDE_SCAN, NearFieldScanConfig
 from compass_manip.sim.world import World
 
 sys.path.insert(0, os.path.dirname(__file__))
 from diag_grasp_certified import _dists  # noqa: E402
 
 STATE = {0: "unknown", 1: "free", 2: "occupied"}
-WIDE = NearFieldScanConfig(n_candidates=240, max_views=32, yaw_range=2.2, box_min=(-0.5, -0.7, 0.0),
-                           box_max=(0.75, 0.7, 1.2))
+WIDE = WIDE_SCAN
 
 
 def record_run(scene, config, seed, world):

@@ -48,7 +48,7 @@ def test_labels_agree_with_octomap_on_a_level_4_frame(frame_and_reference, group
     at the edges of ray bundles unknown (README: 99.6 % of the observed voxels over 8 frames;
     a single frame has more bundle edges per observed voxel)."""
     f, ref = frame_and_reference
-    occ = OccupancyMap(MapConfig(ray_grouping=grouping))
+    occ = OccupancyMap(MapConfig(ray_grouping=grouping, surface_guard=False, sticky_hits=0))  # OctoMap's rule
     occ.integrate(f.depth, f.K, f.T_world_cam, MAX_RANGE)
     mine = occ.state.ravel()
     known = (ref != 0) | (mine != 0)

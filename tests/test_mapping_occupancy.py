@@ -16,6 +16,8 @@ K = np.array([[50.0, 0.0, 15.5], [0.0, 50.0, 11.5], [0.0, 0.0, 1.0]])  # 32 x 24
 
 
 def small_map(**kw) -> OccupancyMap:
+    """OctoMap's rule (the surface guard and sticky hits, tests/test_map_trust.py, off)."""
+    kw = {"surface_guard": False, "sticky_hits": 0, **kw}
     return OccupancyMap(MapConfig(box_min=(0.0, 0.0, 0.0), box_max=(0.1, 0.1, 0.1), **kw))
 
 

@@ -13,6 +13,10 @@ BOX = dict(box_min=(-0.05, -0.45, 0.05), box_max=(0.75, 0.45, 0.85))
 MAX_RANGE = 0.6
 
 
+#: OctoMap's own update rule: the map's surface guard and sticky hits off (they depart from it
+#: on purpose, tests/test_map_trust.py)
+OCTOMAP_RULE = dict(surface_guard=False, sticky_hits=0)
+
 def synthetic_frame():
     """A wavy surface 0.3-0.5 m away, a patch with no return and a patch of invalid pixels."""
     v, u = np.mgrid[0:120, 0:160]
@@ -42,7 +46,7 @@ def labels_of(tree, occ):
 @pytest.mark.parametrize("grouping, min_known_agreement", [(0, 1.0), (1, 0.99), (2, 0.995)])
 def test_labels_agree_with_octomap_insert_point_cloud(grouping, min_known_agreement):
     depth, T = synthetic_frame()
-    occ = OccupancyMap(MapConfig(**BOX, ray_grouping=grouping))
+    occ = OccupancyMap(MapConfig(**BOX, ray_grouping=grouping, **OCTOMAP_RULE))
     tree = octomap.OcTree(occ.resolution)
     for k in range(2):  # a second, shifted view of the same surface
         Tk = T.copy()
@@ -87,7 +91,8 @@ def test_bt_round_trip_preserves_labels(tmp_path):
 def test_camera_outside_the_box_agrees_with_octomap():
     # the grid covers only the far half of the view: rays enter it from outside
     depth, T = synthetic_frame()
-    occ = OccupancyMap(MapConfig(box_min=(0.25, -0.45, 0.05), box_max=(0.75, 0.45, 0.85), ray_grouping=0))
+    occ = OccupancyMap(MapConfig(box_min=(0.25, -0.45, 0.05), box_max=(0.75, 0.45, 0.85), ray_grouping=0,
+                                 **OCTOMAP_RULE))
     occ.integrate(depth, K, T, MAX_RANGE)
     tree = octomap.OcTree(occ.resolution)
     tree.insertPointCloud(octomap_points(depth, T, MAX_RANGE), np.ascontiguousarray(T[:3, 3]), maxrange=MAX_RANGE)

@@ -167,7 +167,8 @@ def local_fine_map(occ: OccupancyMap, lo: np.ndarray, hi: np.ndarray, upsample: 
     cfg = MapConfig(box_min=tuple(occ.grid_min + a * res), box_max=tuple(occ.grid_min + b * res),
                     resolution=res / upsample, prob_hit=c.prob_hit, prob_miss=c.prob_miss, clamp_min=c.clamp_min,
                     clamp_max=c.clamp_max, occupancy_threshold=c.occupancy_threshold,
-                    pixel_stride=c.pixel_stride, ray_grouping=c.ray_grouping)
+                    pixel_stride=c.pixel_stride, ray_grouping=c.ray_grouping, surface_guard=c.surface_guard,
+                    sticky_hits=c.sticky_hits)
     fine = OccupancyMap(cfg)
     if fine.shape != tuple(upsample * (b - a)) or not np.allclose(fine.grid_min, occ.grid_min + a * res):
         raise CompassInputError("the fine map's grid does not align with the map's voxels")

@@ -19,8 +19,8 @@ empty part, and a few such misses flip a voxel once hit back to free:
   in the surface) and within a few voxels of its hit voxel (`GUARD_RADIUS_MAX`) (rays that pass just
   over a board's edge and end behind it cross voxels the board fills in part, next to where
   their neighbours hit it); and a ray that passes within half a voxel diagonal of an
-  occluding edge (a nearer neighbour pixel) frees nothing behind the edge's depth: the
-  object goes on unseen behind its edge, in the voxels beside the ray;
+  occluding edge's shadow (a nearer neighbour pixel) frees nothing there behind the edge's
+  depth: the object goes on unseen behind its edge, maybe in the voxels beside the ray;
 * sticky hits: a voxel hit in `sticky` scans stays occupied; later misses do not lower it.
 """
 from __future__ import annotations
@@ -65,9 +65,9 @@ def integrate_scan(
     {1, 2} traces, among the rays whose end points fall in the same cell of edge res / g
     (for rays ending outside the grid: whose grid exit points fall in the same cell of
     edge res / 2), only the first one's free space; hits still come from every ray.
-    normals (N, 5): per ray `raycast.depth_cues` (the unit surface normal at its end point
-    or NaN, the spacing [m] of the samples there, the range [m] up to which it frees space),
-    or an empty (0, 5) array: no surface guard. hits (nx, ny, nz) uint8: the
+    normals (N, 6): per ray `raycast.depth_cues` (the unit surface normal at its end point
+    or NaN, the spacing [m] of the samples there, the interval of ranges [m] where it frees
+    nothing), or an empty (0, 6) array: no surface guard. hits (nx, ny, nz) uint8: the
     number of scans that hit each voxel (saturating), updated in place; sticky >= 1: a voxel
     hit in that many scans is occupied for good (0: OctoMap's rule).
     Returns (voxels updated as free, voxels updated as occupied, rays traced).
@@ -250,16 +250,20 @@ def _trace_block(mark, row_dirty, origin, points, kind, cast, c0, c1, max_range,
             p0 = ex * inv_res - k0[0] - 0.5
             p1 = ey * inv_res - k0[1] - 0.5
             p2 = ez * inv_res - k0[2] - 0.5
-        t_stop = 2.0  # segment parameter beyond which the ray frees nothing (shadow of an edge)
+        # segment parameters [t_stop, t_resume) where the ray frees nothing (an edge's shadow)
+        t_stop, t_resume, t_in = 2.0, 2.0, 0.0
         if normals.shape[0] > 0 and normals[cast[c], 4] < 1e30:
-            L = math.sqrt((ex - origin[0]) ** 2 + (ey - origin[1]) ** 2 + (ez - origin[2]) ** 2)
-            t_stop = normals[cast[c], 4] / max(L, 1e-12)
+            L = max(math.sqrt((ex - origin[0]) ** 2 + (ey - origin[1]) ** 2 + (ez - origin[2]) ** 2), 1e-12)
+            t_stop, t_resume = normals[cast[c], 4] / L, normals[cast[c], 5] / L
         row = ix * ny + iy
         lin = row * nz + iz
         for _ in range(n_steps):
-            if min(tmx, min(tmy, tmz)) > t_stop:  # this voxel reaches behind the edge's depth
-                break
-            if not guard or abs(n0 * (ix - p0) + n1 * (iy - p1) + n2 * (iz - p2)) > ext:
+            t_out = min(tmx, min(tmy, tmz))  # where the ray leaves this voxel
+            shadow = t_out > t_stop and t_in < t_resume
+            t_in = t_out
+            if shadow:
+                pass
+            elif not guard or abs(n0 * (ix - p0) + n1 * (iy - p1) + n2 * (iz - p2)) > ext:
                 m = mk[lin]
                 mk[lin] = m | np.uint8(m == _MARK_NONE)  # branch-free: NONE -> FREE, others stay
                 row_dirty[row] = 1

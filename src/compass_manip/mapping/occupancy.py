@@ -26,7 +26,7 @@ from ..geometry import check_intrinsics, check_rigid
 from . import raycast
 from .integration import integrate_scan
 
-_NO_NORMALS = np.zeros((0, 5))
+_NO_NORMALS = np.zeros((0, 6))
 
 #: A self-filter: world points (N, 3) [m] -> bool (N,), True for points on the robot's body.
 PointFilter = Callable[[np.ndarray], np.ndarray]

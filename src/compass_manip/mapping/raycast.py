@@ -177,10 +177,10 @@ def _cam_point(depth, u, v, fx, fy, cx, cy):
 @njit(cache=True)
 def depth_cues(depth, fx, fy, cx, cy, R_world_cam, stride, max_jump, half_diag):
     """What the depth image says about the surface at each pixel `backproject` returns (same
-    order and stride): (N, 5) columns n_x, n_y, n_z (unit normal in the world frame, sign
+    order and stride): (N, 6) columns n_x, n_y, n_z (unit normal in the world frame, sign
     arbitrary), spacing [m] of the neighbouring samples on the surface (the longer of the two
-    tangents used), and shadow range [m]: how far along this pixel's ray free space is known
-    (+inf: to its end).
+    tangents used), and the shadow interval [start, end) of ranges [m] along this pixel's ray
+    where it frees nothing (start +inf: none).
 
     The normal comes from the measured points of the neighbouring sampled pixels: along u and
     along v the neighbour with the smaller depth step (a surface does not continue across a
@@ -188,15 +188,16 @@ def depth_cues(depth, fx, fy, cx, cy, R_world_cam, stride, max_jump, half_diag):
     where the smaller step exceeds max_jump [m] plus the step of a surface at 88 deg to the
     ray (30 pixel footprints). Shadows: a pixel with a neighbour farther by more than a depth
     jump (max_jump plus 10 pixel footprints, or a no-return) is an occluding edge at depth
-    d_e; the object goes on, unseen, behind it. The rays of the farther pixels within
-    half_diag [m] of the edge at that depth (a voxel cube there may reach into the shadow)
-    end their known free space at depth d_e - half_diag."""
+    d_e; the object goes on, unseen, behind it. A farther pixel's ray frees nothing from
+    depth d_e - half_diag [m] as long as it passes within half_diag of the edge's shadow
+    (a voxel cube centred on it may reach into the shadow; `_shadow`)."""
     H, W = depth.shape
     off = stride // 2
     nu = (W - off + stride - 1) // stride
     nv = (H - off + stride - 1) // stride
-    out = np.full((nu * nv, 5), np.nan)
+    out = np.full((nu * nv, 6), np.nan)
     out[:, 4] = np.inf
+    out[:, 5] = 0.0
     for jv in range(nv):
         v = jv * stride + off
         for ju in range(nu):
@@ -250,7 +251,10 @@ def depth_cues(depth, fx, fy, cx, cy, R_world_cam, stride, max_jump, half_diag):
 
 @njit(cache=True, inline="always")
 def _shadow(depth, out, u, v, d, jump, half_diag, fx, fy, cx, cy, stride, off, nu, nv):
-    """Limit the known free range of the rays beside the occluding edge pixel (u, v) at depth d."""
+    """Limit the known free space of the rays beside the occluding edge pixel (u, v) at depth
+    d: a ray k sampled pixels away passes k * stride * z / fx [m] beside the edge's shadow at
+    depth z, so from depth d - half_diag until that distance reaches half_diag the voxels it
+    crosses may reach into the shadow."""
     k = int(math.ceil(half_diag * fx / (d * stride)))  # pixels within half_diag of the edge at depth d
     z_stop = max(d - half_diag, 0.0)
     ju0, jv0 = (u - off) // stride, (v - off) // stride
@@ -261,9 +265,12 @@ def _shadow(depth, out, u, v, d, jump, half_diag, fx, fy, cx, cy, stride, off, n
             dd = depth[vv, uu]
             if not dd > d + jump:
                 continue
+            z_resume = half_diag * fx / (stride * math.sqrt((ju - ju0) ** 2 + (jv - jv0) ** 2))
+            if z_resume <= z_stop:
+                continue
             xc = (uu - cx) / fx
             yc = (vv - cy) / fy
-            r = z_stop * math.sqrt(xc * xc + yc * yc + 1.0)
+            ray = math.sqrt(xc * xc + yc * yc + 1.0)  # range [m] per metre of z-depth
             m = jv * nu + ju
-            if r < out[m, 4]:
-                out[m, 4] = r
+            out[m, 4] = min(out[m, 4], z_stop * ray)
+            out[m, 5] = max(out[m, 5], z_resume * ray)

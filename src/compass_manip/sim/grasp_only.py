@@ -57,7 +57,8 @@ class GraspOnlyConfig:
     n_views=0: off); near_field_scan: greedy views of the unknown space around the body after
     the near_field_views random ones (`sim.near_field`; None: off); near_body_free: take the
     unknown space links 0-4 sweep near home as free (`near_body_unknown`; off by default since
-    the scan: that assumption let two transfers touch a base obstacle)."""
+    the scan: that assumption let two transfers touch a base obstacle); map: the 1 cm map's
+    settings (its update rule: `MapConfig.surface_guard`, `sticky_hits`)."""
 
     n_view_samples: int = 80
     view_distance: tuple[float, float] = (0.25, 0.5)
@@ -68,6 +69,7 @@ class GraspOnlyConfig:
     near_field_views: int = 24
     near_field_scan: NearFieldScanConfig | None = field(default_factory=NearFieldScanConfig)
     near_body_free: bool = False
+    map: MapConfig = field(default_factory=MapConfig)
     explore_views: int = 12
     explore_path_frames: int = 2
     carve_margin: float = 0.02
@@ -234,7 +236,7 @@ def run_grasp_only(scene: SceneSpec, config: GraspOnlyConfig | None = None, seed
             return GraspOnlyResult(None, vis, 0, None, None, None, 0.0)
         t0 = time.perf_counter()
         spheres = panda_sphere_model(world.robot)
-        occ = OccupancyMap(MapConfig())
+        occ = OccupancyMap(config.map)
         way = RobotSpaceMask(occ, spheres, config.carve_margin)  # the robot's own space, kept as it moves
 
         moved: list = []  # every configuration the robot passed through (the INSPECT model's swept space)
@@ -305,7 +307,7 @@ def run_grasp_only(scene: SceneSpec, config: GraspOnlyConfig | None = None, seed
                 went(densify(np.asarray(p), 0.05))
             frames += list(insp.frames)
         target = build_target_model(points, view.T_world_cam[:3, 3], task.target, occ, config.target)
-        extra = way.mask
+        extra = way.mask & (occ.state != VoxelState.OCCUPIED)  # seen occupied stays unsafe (as in the trial)
         if config.near_body_free:
             extra = extra | near_body_unknown(occ, spheres, q_home)
         fine, fine_time = None, 0.0

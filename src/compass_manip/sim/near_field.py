@@ -54,6 +54,11 @@ class NearFieldScanConfig:
             raise CompassInputError(f"box_max {self.box_max} must exceed box_min {self.box_min} [m]")
 
 
+#: The wider scan (docs/grasping.md): joint 1 within +-2.2 rad, beside and behind the base.
+WIDE_SCAN = NearFieldScanConfig(n_candidates=240, max_views=32, yaw_range=2.2, box_min=(-0.5, -0.7, 0.0),
+                                box_max=(0.75, 0.7, 1.2))
+
+
 def scan_candidates(q_home: np.ndarray, n: int, rng: np.random.Generator, config: NearFieldScanConfig) -> np.ndarray:
     """(n, 7) configurations [rad] around home (see `NearFieldScanConfig`), within the limits."""
     Q = np.repeat(np.asarray(q_home, dtype=np.float64)[None], n, axis=0)
