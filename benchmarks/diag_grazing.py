@@ -33,7 +33,7 @@ import numpy as np
 from compass_manip.mapping import raycast
 from compass_manip.mapping.occupancy import MapConfig, OccupancyMap, VoxelState
 from compass_manip.mapping.selffilter import SphereBodyFilter
-from compass_manip.mapping.observe import SELF_FILTER_MARGIN
+from compass_manip.mapping.observe import SELF_FILTER_MARGIN, integrate_observation
 from compass_manip.motion.primitives import PrimitiveSet
 from compass_manip.motion.timing import densify
 from compass_manip.robot.model import GRIPPER_MAX_WIDTH
@@ -51,9 +51,16 @@ STATE = {0: "unknown", 1: "free", 2: "occupied"}
 WIDE = WIDE_SCAN
 
 
-def record_run(scene, config, seed, world):
-    """Run the harness; returns (result, [frames integrated into the 1 cm map, in order], selection inputs)."""
-    frames, inputs = [], {}
+def record_run(scene, config, seed, world, way_overrides_occupied=False):
+    """Run the harness; returns (result, [frames integrated into the 1 cm map, in order], selection inputs).
+    way_overrides_occupied: pass the robot's whole way as safe, voxels seen occupied included
+    (the harness before this branch)."""
+    frames, inputs, ways = [], {}, []
+
+    class Way(grasp_only.RobotSpaceMask):
+        def __init__(self, *a, **k):
+            super().__init__(*a, **k)
+            ways.append(self)
     orig_int, orig_nf, orig_sel = grasp_only.integrate_observation, near_field.integrate_observation, \
         grasp_only.select_grasp
 
@@ -63,16 +70,20 @@ def record_run(scene, config, seed, world):
         return orig_int(occ, obs, spheres, max_range, *a, **k)
 
     def sel(target, occ, task, q, sph, cfg, rng, **kw):
+        if way_overrides_occupied:
+            kw["extra_safe"] = ways[-1].mask
         inputs.update(target=target, occ=occ.copy(), extra=kw.get("extra_safe"), fine=kw.get("fine_map"), q=q)
         return orig_sel(target, occ, task, q, sph, cfg, rng, **kw)
 
     grasp_only.integrate_observation = near_field.integrate_observation = rec
     grasp_only.select_grasp = sel
+    orig_way, grasp_only.RobotSpaceMask = grasp_only.RobotSpaceMask, Way
     try:
         r = grasp_only.run_grasp_only(scene, config, seed=seed, world=world)
     finally:
         grasp_only.integrate_observation, near_field.integrate_observation = orig_int, orig_nf
         grasp_only.select_grasp = orig_sel
+        grasp_only.RobotSpaceMask = orig_way
     return r, frames, inputs
 
 
@@ -166,13 +177,18 @@ def main() -> int:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--scan", choices=("wide", "default"), default="wide")
     ap.add_argument("--max-voxels", type=int, default=12)
+    ap.add_argument("--octomap-rule", action="store_true", help="the map with OctoMap's rule (as before this branch)")
+    ap.add_argument("--way-overrides-occupied", action="store_true",
+                    help="the robot's way safe even where seen occupied (the harness before this branch)")
     args = ap.parse_args()
     scene = certified_scene(args.level, args.index, args.seed).scene
-    config = GraspOnlyConfig(near_field_scan=WIDE if args.scan == "wide" else NearFieldScanConfig())
+    config = GraspOnlyConfig(near_field_scan=WIDE if args.scan == "wide" else NearFieldScanConfig(),
+                             map=MapConfig(surface_guard=False, sticky_hits=0) if args.octomap_rule else MapConfig())
     world = World(scene)
     try:
-        r, frames, inp = record_run(scene, config, args.seed, world)
-        rec = {"level": args.level, "index": args.index, "scan": args.scan, **{k: r.to_dict()[k] for k in (
+        r, frames, inp = record_run(scene, config, args.seed, world, args.way_overrides_occupied)
+        rec = {"level": args.level, "index": args.index, "scan": args.scan, "octomap_rule": args.octomap_rule,
+               "way_overrides_occupied": args.way_overrides_occupied, **{k: r.to_dict()[k] for k in (
             "success", "selection_failure", "exec_failure", "collisions")}, "n_frames": len(frames)}
         o, s = r.outcome, r.selection
         if o is None or not o.collisions or s is None or s.path is None:
@@ -182,6 +198,7 @@ def main() -> int:
         occ, extra = inp["occ"], inp["extra"]
         res = occ.resolution
         path = densify(np.vstack([s.path, s.q_grasp[None]]), 0.005)
+        new_map = None
         for c in o.collisions:
             prims = obstacle_prims(scene, c.other_geom)
             crec = {"collision": f"{c.phase}:{c.robot_geom}->{c.other_geom}", "depth_mm": round(1e3 * c.depth, 1)}
@@ -224,6 +241,12 @@ def main() -> int:
             crec["overlapped_voxels_with_truth"] = len(V)
             crec["by_label_and_way_mask"] = dict(Counter(f"{STATE[int(a)]}/{'way' if b else 'no_way'}"
                                                          for a, b in zip(st, ex)))
+            if new_map is None:  # the same frames with this branch's rule (surface guard, sticky hits)
+                new_map = OccupancyMap(MapConfig())
+                for f in frames:
+                    integrate_observation(new_map, f, spheres, world.camera.depth_max)
+            st_new = new_map.state[V[:, 0], V[:, 1], V[:, 2]]
+            crec["by_label_new_rule"] = dict(Counter(STATE[int(a)] for a in st_new))
             free = np.nonzero(st == VoxelState.FREE)[0]
             # the freed voxels, deepest in the obstacle first
             pick = free[np.argsort(dist[free])][: args.max_voxels]
