@@ -4,7 +4,9 @@ field, and a side-by-side comparison with OctoMap (`octomap-python`) on the same
 Frames: 320x240 wrist-camera depth images rendered by `compass_manip.sim` in the Level-4
 scene (certified_scene(4, 0, seed 0)) at Q_HOME and 7 configurations around it,
 integrated with max_range 2 m (the camera's depth_max). `_exact` lines use ray_grouping=0
-(every pixel's ray, identical to OctoMap), the others the default ray_grouping=1. The
+(every pixel's ray, identical to OctoMap's rays), the others the default ray_grouping=1;
+`_octomap_rule` lines turn the map's surface guard and sticky hits off (OctoMap's update),
+`_2cm` lines use the method's 2 cm voxels. The
 machine's 1-minute load average is printed with every line: wall times on a shared
 2-core machine depend on it; `_cpu_ms` reports CPU time instead.
 Prints one JSON object per line. Run: `.venv/bin/python benchmarks/bench_mapping.py`.
@@ -106,6 +108,12 @@ def main() -> None:
     t320 = _time_integrate(frames, config, rounds=5)
     results.append(_stats("map.integrate_320x240_ms", t320))
     results.append(_stats("map.integrate_320x240_exact_ms", _time_integrate(frames, exact, rounds=3)))
+    # the same with OctoMap's update rule (no surface guard, no sticky hits): what the guard costs
+    octo = MapConfig(surface_guard=False, sticky_hits=0)
+    results.append(_stats("map.integrate_320x240_octomap_rule_ms", _time_integrate(frames, octo, rounds=5)))
+    results.append(_stats("map.integrate_320x240_2cm_ms", _time_integrate(frames, MapConfig(resolution=0.02), rounds=5)))
+    results.append(_stats("map.integrate_320x240_2cm_octomap_rule_ms", _time_integrate(
+        frames, MapConfig(resolution=0.02, surface_guard=False, sticky_hits=0), rounds=5)))
     # CPU time of the calling thread plus workers: insensitive to other jobs on the machine
     results.append(_stats("map.integrate_320x240_cpu_ms", _time_integrate(frames, config, 3, time.process_time)))
     small = [(d[::2, ::2], np.array([[K[0, 0] / 2, 0, K[0, 2] / 2], [0, K[1, 1] / 2, K[1, 2] / 2], [0, 0, 1]]), T)
