@@ -34,6 +34,7 @@ from compass_manip.mapping import raycast
 from compass_manip.mapping.occupancy import MapConfig, OccupancyMap, VoxelState
 from compass_manip.mapping.selffilter import SphereBodyFilter
 from compass_manip.mapping.observe import SELF_FILTER_MARGIN, integrate_observation
+from compass_manip.grasp.robot_space import base_volume_mask
 from compass_manip.motion.primitives import PrimitiveSet
 from compass_manip.motion.timing import densify
 from compass_manip.robot.model import GRIPPER_MAX_WIDTH
@@ -228,7 +229,7 @@ def main() -> int:
                     g = np.stack(np.meshgrid(*[np.arange(a[j], b[j] + 1) for j in range(3)], indexing="ij"), -1)
                     g = g.reshape(-1, 3)
                     ctr = occ.voxel_to_world(g)
-                    near = np.all(np.abs(cc - ctr) <= rr + 0.5 * res, axis=1)  # cube-sphere overlap (box bound)
+                    near = np.linalg.norm(np.clip(cc, ctr - 0.5 * res, ctr + 0.5 * res) - cc, axis=1) < rr  # cube meets sphere
                     for v in g[near]:
                         vox.add(tuple(int(x) for x in v))
             V = np.array(sorted(vox)).reshape(-1, 3)
@@ -238,9 +239,10 @@ def main() -> int:
             V, dist = V[solid], dist[solid]
             st = occ.state[V[:, 0], V[:, 1], V[:, 2]]
             ex = extra[V[:, 0], V[:, 1], V[:, 2]] if extra is not None else np.zeros(len(V), bool)
+            bv = base_volume_mask(spheres, occ)[V[:, 0], V[:, 1], V[:, 2]]
             crec["overlapped_voxels_with_truth"] = len(V)
-            crec["by_label_and_way_mask"] = dict(Counter(f"{STATE[int(a)]}/{'way' if b else 'no_way'}"
-                                                         for a, b in zip(st, ex)))
+            crec["by_label_way_base"] = dict(Counter(
+                f"{STATE[int(a)]}/{'way' if b else 'no_way'}/{'base_volume' if c else 'no_base'}" for a, b, c in zip(st, ex, bv)))
             if new_map is None:  # the same frames with this branch's rule (surface guard, sticky hits)
                 new_map = OccupancyMap(MapConfig())
                 for f in frames:

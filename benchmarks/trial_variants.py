@@ -5,12 +5,8 @@
 * grasp_map_no_near_body: GRASP and INSPECT on the 1 cm map of every depth frame
   (`GraspTrialConfig.grasp_map`), with no unknown space near the body taken as free
   (`near_body_free=False`).
-* octomap_rule: the default trial with OctoMap's update rule in every map (the method's and
-  the grasp's): `MapConfig(surface_guard=False, sticky_hits=0)`, as before branch trust.
 """
 from __future__ import annotations
-
-from dataclasses import replace
 
 from compass_manip.trial.config import GraspTrialConfig, TrialConfig
 from compass_manip.trial.runner import TrialSpec, run_trial
@@ -24,13 +20,3 @@ def _run(spec, config: TrialConfig) -> tuple[dict, dict]:
 def grasp_map_no_near_body(spec) -> tuple[dict, dict]:
     return _run(spec, TrialConfig(grasp=GraspTrialConfig(grasp_map=True, near_body_free=False)))
 
-
-def octomap_rule(spec) -> tuple[dict, dict]:
-    from compass_manip.mapping import occupancy  # noqa: PLC0415
-
-    old = occupancy.MapConfig.__init__.__defaults__
-    try:  # every MapConfig built in this trial (method map, grasp map, fine map) gets OctoMap's rule
-        occupancy.MapConfig.__init__.__defaults__ = old[:-2] + (False, 0)
-        return _run(spec, replace(TrialConfig()))
-    finally:
-        occupancy.MapConfig.__init__.__defaults__ = old
