@@ -41,6 +41,8 @@ sys.path.insert(0, os.path.dirname(__file__))
 from diag_grasp_certified import _dists  # noqa: E402
 
 WIDE = WIDE_SCAN
+RULES = {"octomap": dict(surface_guard=False, sticky_hits=0), "guard": dict(surface_guard=True, sticky_hits=0),
+         "sticky": dict(surface_guard=False, sticky_hits=1), "guard+sticky": dict(surface_guard=True, sticky_hits=1)}
 
 
 def harness_frames(scene, config, seed, world):

@@ -6,7 +6,8 @@ and marks the voxels they cross (in parallel when there is enough work, serially
 otherwise: on a machine shared with other jobs a parallel region costs a scheduling round
 for every thread); `_apply` updates each marked voxel once and clears the scratch grids.
 
-Marks: a voxel hit in the scan is marked HIT and never re-marked FREE, so hits win and
+Marks: a voxel hit in the scan is marked HIT (HIT_PATCHED once the surface guard's patch
+around it is marked: one patch per hit voxel and scan) and never re-marked FREE, so hits win and
 every voxel is updated at most once per scan, as in OctoMap's `insertPointCloud`.
 
 Two departures from OctoMap's rule make free labels trustworthy for a collision checker
@@ -36,6 +37,7 @@ _MARK_NONE = np.uint8(0)
 _MARK_FREE = np.uint8(1)
 _MARK_HIT = np.uint8(2)
 _MARK_GUARD = np.uint8(3)  # not freed by this scan (surface guard), not hit either
+_MARK_HIT_PATCHED = np.uint8(4)  # hit, and the surface guard's patch around it is marked
 
 #: The surface guard's patch: the voxels within R = 2 + floor(0.75 spacing / res) voxels of a
 #: hit voxel (spacing: of the neighbouring samples on the surface; R at most this) that meet
@@ -188,9 +190,14 @@ def _prepare(mark, row_dirty, claim, origin, points, kind, max_range, k0, res, g
             iz = int(math.floor(ez * inv_res)) - k0[2]
             if 0 <= ix < nx and 0 <= iy < ny and 0 <= iz < nz:
                 row = ix * ny + iy
-                mk[row * nz + iz] = _MARK_HIT
+                lin_hit = row * nz + iz
                 row_dirty[row] = 1
-                if normals.shape[0] > 0 and not math.isnan(normals[i, 0]):
+                if mk[lin_hit] == _MARK_HIT_PATCHED:  # one patch per hit voxel and scan
+                    pass
+                elif normals.shape[0] == 0 or math.isnan(normals[i, 0]):
+                    mk[lin_hit] = _MARK_HIT
+                else:
+                    mk[lin_hit] = _MARK_HIT_PATCHED
                     R = min(GUARD_RADIUS_MAX, 2 + int(0.75 * normals[i, 3] * inv_res))
                     _guard_patch(mk, row_dirty, ix, iy, iz, ex * inv_res - k0[0], ey * inv_res - k0[1],
                                  ez * inv_res - k0[2], normals[i, 0], normals[i, 1], normals[i, 2], R, nx, ny, nz)
@@ -344,7 +351,7 @@ def _apply(logodds, state, mark, row_dirty, claim, claimed, n_cast, hits, sticky
                 continue
             v = lo_flat[base + k]
             h = hf[base + k]
-            if m == _MARK_HIT:
+            if m == _MARK_HIT or m == _MARK_HIT_PATCHED:
                 v = v + hit_log
                 if v > clamp_max_log:
                     v = clamp_max_log

@@ -198,6 +198,7 @@ def depth_cues(depth, fx, fy, cx, cy, R_world_cam, stride, max_jump, half_diag):
     out = np.full((nu * nv, 6), np.nan)
     out[:, 4] = np.inf
     out[:, 5] = 0.0
+    t = np.zeros((2, 3))  # the two tangents of the current pixel (set when its neighbour qualifies)
     for jv in range(nv):
         v = jv * stride + off
         for ju in range(nu):
@@ -210,7 +211,6 @@ def depth_cues(depth, fx, fy, cx, cy, R_world_cam, stride, max_jump, half_diag):
             foot = d * stride / fx
             jump = max_jump + 10.0 * foot
             tol = max_jump + 30.0 * foot
-            t = np.zeros((2, 3))
             ok = True
             edge = False
             for a in range(2):
