@@ -13,6 +13,7 @@ import pytest
 from compass_manip.errors import CompassInputError
 from compass_manip.geometry import look_at
 from compass_manip.mapping import raycast
+from compass_manip.mapping.depth_cues import depth_cues
 from compass_manip.mapping.occupancy import MapConfig, OccupancyMap, VoxelState
 
 W, H = 320, 240
@@ -128,7 +129,7 @@ def test_sticky_hits_keep_a_once_hit_voxel_occupied(sticky, expect):
 def test_depth_cues_give_the_plane_normal_spacing_and_shadows():
     T = camera(30.0)
     depth = render(T, [BOARD, WALL])
-    cues = raycast.depth_cues(depth.astype(np.float32), K[0, 0], K[1, 1], K[0, 2], K[1, 2],
+    cues = depth_cues(depth.astype(np.float32), K[0, 0], K[1, 1], K[0, 2], K[1, 2],
                               np.ascontiguousarray(T[:3, :3]), 1, 0.005, 0.0087)
     assert cues.shape == (W * H, 6)
     on_top = np.isfinite(depth.ravel())

@@ -7,22 +7,14 @@ otherwise: on a machine shared with other jobs a parallel region costs a schedul
 for every thread); `_apply` updates each marked voxel once and clears the scratch grids.
 
 Marks: a voxel hit in the scan is marked HIT (HIT_PATCHED once the surface guard's patch
-around it is marked: one patch per hit voxel and scan) and never re-marked FREE, so hits win and
-every voxel is updated at most once per scan, as in OctoMap's `insertPointCloud`.
+around it is marked) and never re-marked FREE, so hits win and every voxel is updated at
+most once per scan, as in OctoMap's `insertPointCloud`.
 
-Two departures from OctoMap's rule make free labels trustworthy for a collision checker
-that treats voxels as cubes (both optional, see `MapConfig`). OctoMap frees every voxel a
-ray's line crosses, so a voxel a wall or board fills in part is freed by rays through its
-empty part, and a few such misses flip a voxel once hit back to free:
-* surface guard: where a ray ends on a surface whose normal is known (from the depth
-  image), the voxels whose cube meets the surface's tangent plane at the end point are not
-  freed by the scan: along that ray (the last voxels before a hit at grazing incidence lie
-  in the surface) and within a few voxels of its hit voxel (`GUARD_RADIUS_MAX`) (rays that pass just
-  over a board's edge and end behind it cross voxels the board fills in part, next to where
-  their neighbours hit it); and a ray that passes within half a voxel diagonal of an
-  occluding edge's shadow (a nearer neighbour pixel) frees nothing there behind the edge's
-  depth: the object goes on unseen behind its edge, maybe in the voxels beside the ray;
-* sticky hits: a voxel hit in `sticky` scans stays occupied; later misses do not lower it.
+Two departures from OctoMap's rule (both optional, `MapConfig`) keep voxels a surface fills
+in part from being freed by rays through their empty part: the surface guard (no voxel
+meeting a hit's tangent plane is freed, along that ray or around its hit voxel; rays beside
+an occluding edge free nothing in its shadow; `depth_cues`) and sticky hits (a voxel hit in
+`sticky` scans stays occupied, misses no longer lower it).
 """
 from __future__ import annotations
 
@@ -31,19 +23,14 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from .raycast import FREE, KIND_INVALID, KIND_POINT, OCCUPIED, ray_setup
+from .depth_cues import GUARD_RADIUS_MAX, guard_patch
+from .depth_cues import MARK_GUARD as _MARK_GUARD
+from .depth_cues import MARK_NONE as _MARK_NONE
+from .raycast import FREE, KIND_INVALID, OCCUPIED, grid_cell_point, ray_end, ray_setup
 
-_MARK_NONE = np.uint8(0)
 _MARK_FREE = np.uint8(1)
 _MARK_HIT = np.uint8(2)
-_MARK_GUARD = np.uint8(3)  # not freed by this scan (surface guard), not hit either
 _MARK_HIT_PATCHED = np.uint8(4)  # hit, and the surface guard's patch around it is marked
-
-#: The surface guard's patch: the voxels within R = 2 + floor(0.75 spacing / res) voxels of a
-#: hit voxel (spacing: of the neighbouring samples on the surface; R at most this) that meet
-#: the hit's tangent plane are not freed by the scan, so the patches of neighbouring hits
-#: close up also where grazing incidence spreads the samples apart.
-GUARD_RADIUS_MAX = 4
 
 #: Trace in parallel only from this many rays on.
 PARALLEL_MIN_RAYS = 4096
@@ -67,7 +54,7 @@ def integrate_scan(
     {1, 2} traces, among the rays whose end points fall in the same cell of edge res / g
     (for rays ending outside the grid: whose grid exit points fall in the same cell of
     edge res / 2), only the first one's free space; hits still come from every ray.
-    normals (N, 6): per ray `raycast.depth_cues` (the unit surface normal at its end point
+    normals (N, 6): per ray `depth_cues.depth_cues` (the unit surface normal at its end point
     or NaN, the spacing [m] of the samples there, the interval of ranges [m] where it frees
     nothing), or an empty (0, 6) array: no surface guard. hits (nx, ny, nz) uint8: the
     number of scans that hit each voxel (saturating), updated in place; sticky >= 1: a voxel
@@ -82,87 +69,6 @@ def integrate_scan(
         _trace_serial(mark, row_dirty, origin, points, kind, cast, n_cast, max_range, k0, res, normals)
     n_free, n_hit = _apply(logodds, state, mark, row_dirty, claim, claimed, n_cast, hits, sticky, *logs)
     return int(n_free), int(n_hit), int(n_cast)
-
-
-@njit(cache=True, inline="always")
-def _ray_end(origin, points, kind, i, max_range):
-    """End point [m] of ray i and whether it is a hit (OctoMap's maxrange rule)."""
-    px = points[i, 0]
-    py = points[i, 1]
-    pz = points[i, 2]
-    dx = px - origin[0]
-    dy = py - origin[1]
-    dz = pz - origin[2]
-    L2 = dx * dx + dy * dy + dz * dz
-    if kind[i] == KIND_POINT and L2 <= max_range * max_range:
-        return px, py, pz, True
-    if L2 == 0.0:
-        return px, py, pz, False
-    s = max_range / math.sqrt(L2)
-    return origin[0] + dx * s, origin[1] + dy * s, origin[2] + dz * s, False
-
-
-@njit(cache=True, inline="always")
-def _grid_cell_point(gx, gy, gz, ex, ey, ez, nx, ny, nz):
-    """The end point e of the segment g -> e (grid units) if it lies in the grid, else the
-    point where the segment leaves the grid (clamped inside); (x, y, z, ok, inside). ok is
-    False if the segment misses the grid, inside is True for the end point itself."""
-    if 0.0 <= ex < nx and 0.0 <= ey < ny and 0.0 <= ez < nz:
-        return ex, ey, ez, True, True
-    dx = ex - gx
-    dy = ey - gy
-    dz = ez - gz
-    t_in = 0.0
-    t_out = 1.0
-    for g, d, n in ((gx, dx, nx), (gy, dy, ny), (gz, dz, nz)):
-        if d != 0.0:
-            a = -g / d
-            b = (n - g) / d
-            t_in = max(t_in, min(a, b))
-            t_out = min(t_out, max(a, b))
-        elif g < 0.0 or g >= n:
-            t_out = -1.0
-    if t_in >= t_out:
-        return 0.0, 0.0, 0.0, False, False
-    t = t_out * (1.0 - 1e-9)
-    top = 1.0 - 1e-9
-    return (min(max(gx + dx * t, 0.0), nx - top), min(max(gy + dy * t, 0.0), ny - top),
-            min(max(gz + dz * t, 0.0), nz - top), True, False)
-
-
-@njit(cache=True, inline="always")
-def _guard_patch(mk, row_dirty, ix, iy, iz, p0, p1, p2, n0, n1, n2, R, nx, ny, nz):
-    """Mark GUARD the unmarked voxels within R voxels of voxel (ix, iy, iz) whose cube meets
-    the plane through p (grid units) with unit normal n: over the two axes where n is
-    smaller, the few voxels along the third whose centre lies within the cube's reach."""
-    ext = 0.5 * (abs(n0) + abs(n1) + abs(n2))
-    i_c = (ix, iy, iz)
-    p = (p0, p1, p2)
-    nv = (n0, n1, n2)
-    dims = (nx, ny, nz)
-    a = 0  # the axis where |n| is largest
-    if abs(n1) > abs(nv[a]):
-        a = 1
-    if abs(n2) > abs(nv[a]):
-        a = 2
-    b, c = (a + 1) % 3, (a + 2) % 3
-    half = ext / abs(nv[a])
-    idx = np.empty(3, np.int64)
-    for kb in range(max(0, i_c[b] - R), min(dims[b], i_c[b] + R + 1)):
-        for kc in range(max(0, i_c[c] - R), min(dims[c], i_c[c] + R + 1)):
-            # the plane's coordinate along axis a above the centre of cell (kb, kc)
-            za = p[a] - (nv[b] * (kb + 0.5 - p[b]) + nv[c] * (kc + 0.5 - p[c])) / nv[a]
-            lo = max(max(0, i_c[a] - R), int(math.ceil(za - half - 0.5)))
-            hi = min(min(dims[a] - 1, i_c[a] + R), int(math.floor(za + half - 0.5)))
-            idx[b] = kb
-            idx[c] = kc
-            for ka in range(lo, hi + 1):
-                idx[a] = ka
-                row = idx[0] * ny + idx[1]
-                lin = row * nz + idx[2]
-                if mk[lin] == _MARK_NONE:
-                    mk[lin] = _MARK_GUARD
-                    row_dirty[row] = 1
 
 
 @njit(cache=True)
@@ -183,7 +89,7 @@ def _prepare(mark, row_dirty, claim, origin, points, kind, max_range, k0, res, g
     for i in range(n):
         if kind[i] == KIND_INVALID:
             continue
-        ex, ey, ez, hit = _ray_end(origin, points, kind, i, max_range)
+        ex, ey, ez, hit = ray_end(origin, points, kind, i, max_range)
         if hit:
             ix = int(math.floor(ex * inv_res)) - k0[0]
             iy = int(math.floor(ey * inv_res)) - k0[1]
@@ -199,11 +105,11 @@ def _prepare(mark, row_dirty, claim, origin, points, kind, max_range, k0, res, g
                 else:
                     mk[lin_hit] = _MARK_HIT_PATCHED
                     R = min(GUARD_RADIUS_MAX, 2 + int(0.75 * normals[i, 3] * inv_res))
-                    _guard_patch(mk, row_dirty, ix, iy, iz, ex * inv_res - k0[0], ey * inv_res - k0[1],
+                    guard_patch(mk, row_dirty, ix, iy, iz, ex * inv_res - k0[0], ey * inv_res - k0[1],
                                  ez * inv_res - k0[2], normals[i, 0], normals[i, 1], normals[i, 2], R, nx, ny, nz)
         lin = -1
         if grouping > 0:
-            cx, cy, cz, ok, inside = _grid_cell_point(
+            cx, cy, cz, ok, inside = grid_cell_point(
                 gx, gy, gz, ex * inv_res - k0[0], ey * inv_res - k0[1], ez * inv_res - k0[2], nx, ny, nz
             )
             if ok:
@@ -238,7 +144,7 @@ def _trace_block(mark, row_dirty, origin, points, kind, cast, c0, c1, max_range,
     gz = origin[2] * inv_res - k0[2]
     sx_lin = ny * nz
     for c in range(c0, c1):
-        ex, ey, ez, hit = _ray_end(origin, points, kind, cast[c], max_range)
+        ex, ey, ez, hit = ray_end(origin, points, kind, cast[c], max_range)
         ok, ix, iy, iz, sx, sy, sz, tmx, tmy, tmz, tdx, tdy, tdz, n_steps = ray_setup(
             gx, gy, gz, ex * inv_res - k0[0], ey * inv_res - k0[1], ez * inv_res - k0[2],
             int(math.floor(ex * inv_res)) - k0[0], int(math.floor(ey * inv_res)) - k0[1],

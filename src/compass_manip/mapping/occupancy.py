@@ -24,6 +24,7 @@ import numpy as np
 from ..errors import CompassInputError, real_number, float_array, points_array
 from ..geometry import check_intrinsics, check_rigid
 from . import raycast
+from .depth_cues import depth_cues
 from .integration import integrate_scan
 
 _NO_NORMALS = np.zeros((0, 6))
@@ -108,8 +109,9 @@ class MapConfig:
             raise CompassInputError(f"ray_grouping {self.ray_grouping} is not allowed; use 0, 1 or 2")
         if not isinstance(self.surface_guard, (bool, np.bool_)):
             raise CompassInputError(f"surface_guard {self.surface_guard!r:.40} is not allowed; use True or False")
-        if isinstance(self.sticky_hits, bool) or not isinstance(self.sticky_hits, int) or not 0 <= self.sticky_hits <= 255:
-            raise CompassInputError(f"sticky_hits {self.sticky_hits!r:.40} is not allowed; use an int 0..255 (0: off)")
+        sticky = self.sticky_hits
+        if isinstance(sticky, bool) or not isinstance(sticky, int) or not 0 <= sticky <= 255:
+            raise CompassInputError(f"sticky_hits {sticky!r:.40} is not allowed; use an int 0..255 (0: off)")
         n = np.ceil(hi / self.resolution - 1e-9) - np.floor(lo / self.resolution + 1e-9)
         if np.prod(n) > 2e8:
             raise CompassInputError(f"map of {n.astype(int)} voxels is too large; at most 2e8 voxels")
@@ -256,7 +258,7 @@ class OccupancyMap:
         )
         normals = _NO_NORMALS
         if self.config.surface_guard:
-            normals = raycast.depth_cues(
+            normals = depth_cues(
                 np.ascontiguousarray(depth, dtype=np.float32), K[0, 0], K[1, 1], K[0, 2], K[1, 2],
                 np.ascontiguousarray(T[:3, :3]), self.config.pixel_stride, 0.5 * self.resolution,
                 0.5 * math.sqrt(3.0) * self.resolution,

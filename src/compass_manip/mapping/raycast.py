@@ -169,108 +169,46 @@ def backproject(depth, fx, fy, cx, cy, R_world_cam, t_world_cam, stride):
 
 
 @njit(cache=True, inline="always")
-def _cam_point(depth, u, v, fx, fy, cx, cy):
-    d = depth[v, u]
-    return (u - cx) / fx * d, (v - cy) / fy * d, d
-
-
-@njit(cache=True)
-def depth_cues(depth, fx, fy, cx, cy, R_world_cam, stride, max_jump, half_diag):
-    """What the depth image says about the surface at each pixel `backproject` returns (same
-    order and stride): (N, 6) columns n_x, n_y, n_z (unit normal in the world frame, sign
-    arbitrary), spacing [m] of the neighbouring samples on the surface (the longer of the two
-    tangents used), and the shadow interval [start, end) of ranges [m] along this pixel's ray
-    where it frees nothing (start +inf: none).
-
-    The normal comes from the measured points of the neighbouring sampled pixels: along u and
-    along v the neighbour with the smaller depth step (a surface does not continue across a
-    depth edge); NaN where the pixel or both neighbours on an axis are not finite depths, or
-    where the smaller step exceeds max_jump [m] plus the step of a surface at 88 deg to the
-    ray (30 pixel footprints). Shadows: a pixel with a neighbour farther by more than a depth
-    jump (max_jump plus 10 pixel footprints, or a no-return) is an occluding edge at depth
-    d_e; the object goes on, unseen, behind it. A farther pixel's ray frees nothing from
-    depth d_e - half_diag [m] as long as it passes within half_diag of the edge's shadow
-    (a voxel cube centred on it may reach into the shadow; `_shadow`)."""
-    H, W = depth.shape
-    off = stride // 2
-    nu = (W - off + stride - 1) // stride
-    nv = (H - off + stride - 1) // stride
-    out = np.full((nu * nv, 6), np.nan)
-    out[:, 4] = np.inf
-    out[:, 5] = 0.0
-    t = np.zeros((2, 3))  # the two tangents of the current pixel (set when its neighbour qualifies)
-    for jv in range(nv):
-        v = jv * stride + off
-        for ju in range(nu):
-            u = ju * stride + off
-            d = depth[v, u]
-            if not (d > 0.0 and d < np.inf):
-                continue
-            n = jv * nu + ju
-            px, py, pz = _cam_point(depth, u, v, fx, fy, cx, cy)
-            foot = d * stride / fx
-            jump = max_jump + 10.0 * foot
-            tol = max_jump + 30.0 * foot
-            ok = True
-            edge = False
-            for a in range(2):
-                best = np.inf
-                for sgn in (-1, 1):
-                    uu = u + sgn * stride * (1 - a)
-                    vv = v + sgn * stride * a
-                    if uu < 0 or uu >= W or vv < 0 or vv >= H:
-                        continue
-                    dd = depth[vv, uu]
-                    if dd > d + jump:  # also +inf (no return)
-                        edge = True
-                    if not (dd > 0.0 and dd < np.inf) or abs(dd - d) >= best:
-                        continue
-                    best = abs(dd - d)
-                    qx, qy, qz = _cam_point(depth, uu, vv, fx, fy, cx, cy)
-                    t[a, 0] = (qx - px) * sgn
-                    t[a, 1] = (qy - py) * sgn
-                    t[a, 2] = (qz - pz) * sgn
-                if best > tol:
-                    ok = False
-            if edge:
-                _shadow(depth, out, u, v, d, jump, half_diag, fx, fy, cx, cy, stride, off, nu, nv)
-            if not ok:
-                continue
-            n0 = t[0, 1] * t[1, 2] - t[0, 2] * t[1, 1]
-            n1 = t[0, 2] * t[1, 0] - t[0, 0] * t[1, 2]
-            n2 = t[0, 0] * t[1, 1] - t[0, 1] * t[1, 0]
-            s = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
-            if s == 0.0:
-                continue
-            for a in range(3):
-                out[n, a] = (R_world_cam[a, 0] * n0 + R_world_cam[a, 1] * n1 + R_world_cam[a, 2] * n2) / s
-            out[n, 3] = math.sqrt(max(t[0, 0] ** 2 + t[0, 1] ** 2 + t[0, 2] ** 2, t[1, 0] ** 2 + t[1, 1] ** 2
-                                      + t[1, 2] ** 2))
-    return out
+def ray_end(origin, points, kind, i, max_range):
+    """End point [m] of ray i and whether it is a hit (OctoMap's maxrange rule)."""
+    px = points[i, 0]
+    py = points[i, 1]
+    pz = points[i, 2]
+    dx = px - origin[0]
+    dy = py - origin[1]
+    dz = pz - origin[2]
+    L2 = dx * dx + dy * dy + dz * dz
+    if kind[i] == KIND_POINT and L2 <= max_range * max_range:
+        return px, py, pz, True
+    if L2 == 0.0:
+        return px, py, pz, False
+    s = max_range / math.sqrt(L2)
+    return origin[0] + dx * s, origin[1] + dy * s, origin[2] + dz * s, False
 
 
 @njit(cache=True, inline="always")
-def _shadow(depth, out, u, v, d, jump, half_diag, fx, fy, cx, cy, stride, off, nu, nv):
-    """Limit the known free space of the rays beside the occluding edge pixel (u, v) at depth
-    d: a ray k sampled pixels away passes k * stride * z / fx [m] beside the edge's shadow at
-    depth z, so from depth d - half_diag until that distance reaches half_diag the voxels it
-    crosses may reach into the shadow."""
-    k = int(math.ceil(half_diag * fx / (d * stride)))  # pixels within half_diag of the edge at depth d
-    z_stop = max(d - half_diag, 0.0)
-    ju0, jv0 = (u - off) // stride, (v - off) // stride
-    for jv in range(max(0, jv0 - k), min(nv, jv0 + k + 1)):
-        vv = jv * stride + off
-        for ju in range(max(0, ju0 - k), min(nu, ju0 + k + 1)):
-            uu = ju * stride + off
-            dd = depth[vv, uu]
-            if not dd > d + jump:
-                continue
-            z_resume = half_diag * fx / (stride * math.sqrt((ju - ju0) ** 2 + (jv - jv0) ** 2))
-            if z_resume <= z_stop:
-                continue
-            xc = (uu - cx) / fx
-            yc = (vv - cy) / fy
-            ray = math.sqrt(xc * xc + yc * yc + 1.0)  # range [m] per metre of z-depth
-            m = jv * nu + ju
-            out[m, 4] = min(out[m, 4], z_stop * ray)
-            out[m, 5] = max(out[m, 5], z_resume * ray)
+def grid_cell_point(gx, gy, gz, ex, ey, ez, nx, ny, nz):
+    """The end point e of the segment g -> e (grid units) if it lies in the grid, else the
+    point where the segment leaves the grid (clamped inside); (x, y, z, ok, inside). ok is
+    False if the segment misses the grid, inside is True for the end point itself."""
+    if 0.0 <= ex < nx and 0.0 <= ey < ny and 0.0 <= ez < nz:
+        return ex, ey, ez, True, True
+    dx = ex - gx
+    dy = ey - gy
+    dz = ez - gz
+    t_in = 0.0
+    t_out = 1.0
+    for g, d, n in ((gx, dx, nx), (gy, dy, ny), (gz, dz, nz)):
+        if d != 0.0:
+            a = -g / d
+            b = (n - g) / d
+            t_in = max(t_in, min(a, b))
+            t_out = min(t_out, max(a, b))
+        elif g < 0.0 or g >= n:
+            t_out = -1.0
+    if t_in >= t_out:
+        return 0.0, 0.0, 0.0, False, False
+    t = t_out * (1.0 - 1e-9)
+    top = 1.0 - 1e-9
+    return (min(max(gx + dx * t, 0.0), nx - top), min(max(gy + dy * t, 0.0), ny - top),
+            min(max(gz + dz * t, 0.0), nz - top), True, False)
