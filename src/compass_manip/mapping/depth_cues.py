@@ -149,19 +149,17 @@ def guard_patch(mk, row_dirty, ix, iy, iz, p0, p1, p2, n0, n1, n2, R, nx, ny, nz
         a = 2
     b, c = (a + 1) % 3, (a + 2) % 3
     half = ext / abs(nv[a])
-    idx = np.empty(3, np.int64)
+    # linear index strides of the axes a, b, c in the (nx, ny, nz) C-order grid
+    strides = (ny * nz, nz, 1)
     for kb in range(max(0, i_c[b] - R), min(dims[b], i_c[b] + R + 1)):
         for kc in range(max(0, i_c[c] - R), min(dims[c], i_c[c] + R + 1)):
             # the plane's coordinate along axis a above the centre of cell (kb, kc)
             za = p[a] - (nv[b] * (kb + 0.5 - p[b]) + nv[c] * (kc + 0.5 - p[c])) / nv[a]
             lo = max(max(0, i_c[a] - R), int(math.ceil(za - half - 0.5)))
             hi = min(min(dims[a] - 1, i_c[a] + R), int(math.floor(za + half - 0.5)))
-            idx[b] = kb
-            idx[c] = kc
+            base = kb * strides[b] + kc * strides[c]
             for ka in range(lo, hi + 1):
-                idx[a] = ka
-                row = idx[0] * ny + idx[1]
-                lin = row * nz + idx[2]
+                lin = base + ka * strides[a]
                 if mk[lin] == MARK_NONE:
                     mk[lin] = MARK_GUARD
-                    row_dirty[row] = 1
+                    row_dirty[lin // nz] = 1
