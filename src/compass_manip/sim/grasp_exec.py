@@ -70,11 +70,25 @@ class Collision:
     depth: float     # [m]
 
 
+@dataclass(frozen=True)
+class PhaseTrace:
+    """The target at the end of one phase: its position [m] (world), its displacement [m]
+    from where it stood before the transfer, the finger pads touching it (0-2) and the
+    robot geoms that touched it during the phase (names, sorted)."""
+
+    phase: str
+    target_pos: tuple[float, float, float]
+    moved: float
+    pads: int
+    touched_by: tuple[str, ...]
+
+
 @dataclass(frozen=True, eq=False)
 class GraspOutcome:
     """lift_height [m] of the target after the lift, hold_height [m] after the hold;
     finger_width [m] after closing; held: both pads touch the target at the end; collisions
-    (first per geom pair); t [s] simulated; failure None on success."""
+    (first per geom pair); t [s] simulated; failure None on success; phases: the target at
+    the end of the transfer, approach, close, lift and hold (`PhaseTrace`)."""
 
     lift_height: float
     hold_height: float
@@ -83,6 +97,7 @@ class GraspOutcome:
     collisions: tuple[Collision, ...]
     t: float
     failure: ExecFailure | None
+    phases: tuple[PhaseTrace, ...] = ()
 
     @property
     def success(self) -> bool:
@@ -97,6 +112,7 @@ class _Monitor:
         self.skip = {int(g) for g in world.target_geoms}
         self.floor, self.base = m.geom("floor").id, m.geom("link0").id
         self.seen: dict[tuple[int, int], Collision] = {}
+        self.touches: dict[str, set[str]] = {}  # phase -> robot geoms that touched the target
 
     def check(self, phase: str) -> None:
         d = self.sim.data
@@ -104,10 +120,16 @@ class _Monitor:
             c = d.contact[i]
             g1, g2 = int(c.geom1), int(c.geom2)
             r1, r2 = self.robot[g1], self.robot[g2]
-            if r1 == r2 or c.dist > -self.depth:
+            if r1 == r2:
                 continue
             rg, og = (g1, g2) if r1 else (g2, g1)
-            if og in self.skip or (rg == self.base and og == self.floor):
+            if og in self.skip:
+                if c.dist < 0:
+                    self.touches.setdefault(phase, set()).add(self.world._geom_name(rg))
+                continue
+            if c.dist > -self.depth:
+                continue
+            if rg == self.base and og == self.floor:
                 continue
             if (rg, og) not in self.seen:
                 self.seen[(rg, og)] = Collision(phase, self.world._geom_name(rg), self.world._geom_name(og),
@@ -154,22 +176,35 @@ def execute_grasp(world: World, selection, q_start: np.ndarray | None = None,
     parts = [world.model.geom(int(g)).name for g in world.target_geoms]  # the target's geoms
     every = config.check_every
     _run(sim, mon, None, "transfer", 0.2, every)
-    z0 = sim.body_pos(name)[2]
+    p0 = sim.body_pos(name)
+    z0 = p0[2]
+    phases: list[PhaseTrace] = []
+
+    def trace(phase: str) -> None:
+        p = sim.body_pos(name)
+        phases.append(PhaseTrace(phase, tuple(float(v) for v in p), float(np.linalg.norm(p - p0)),
+                                 sim.touching(parts), tuple(sorted(mon.touches.get(phase, ())))))
+
     if len(path) > 1:
         _run(sim, mon, _timed(path, config.velocity_scale), "transfer", 0.0, every)
     _run(sim, mon, None, "transfer", config.settle, every)
+    trace("transfer")
     _run(sim, mon, _timed(np.stack([selection.q_pregrasp, selection.q_grasp]), config.approach_scale),
          "approach", 0.0, every)
     _run(sim, mon, None, "approach", config.settle, every)
+    trace("approach")
     sim.data.ctrl[sim._hand_act] = 0.0
     _run(sim, mon, None, "close", config.close_time, every)
+    trace("close")
     width = sim.finger_width
     grasped = sim.touching(parts) == 2
     _run(sim, mon, _timed(np.stack([selection.q_grasp, selection.q_lift]), config.approach_scale),
          "lift", 0.0, every)
     _run(sim, mon, None, "lift", config.settle, every)
+    trace("lift")
     lift = float(sim.body_pos(name)[2] - z0)
     _run(sim, mon, None, "hold", config.hold_time, every)
+    trace("hold")
     hold = float(sim.body_pos(name)[2] - z0)
     held = sim.touching(parts) == 2
     collisions = tuple(mon.seen.values())
@@ -184,4 +219,4 @@ def execute_grasp(world: World, selection, q_start: np.ndarray | None = None,
         failure = ExecFailure.DROP
     else:
         failure = None
-    return GraspOutcome(lift, hold, width, held, collisions, sim.t, failure)
+    return GraspOutcome(lift, hold, width, held, collisions, sim.t, failure, tuple(phases))
