@@ -8,7 +8,7 @@ import numpy as np
 from compass_manip.geometry import rot_y
 from compass_manip.robot.ik import ik_tcp
 from compass_manip.robot.model import Q_HOME
-from compass_manip.sim.grasp_exec import execute_grasp
+from compass_manip.sim.grasp_exec import ExecFailure, GraspExecConfig, execute_grasp
 from compass_manip.sim.physics import PhysicsSession
 from compass_manip.sim.scenes import CabinetSpec, Primitive, SceneSpec
 from compass_manip.sim.world import World
@@ -75,3 +75,20 @@ def test_a_side_grasp_on_a_can_lifts_it_and_holds_it_still():
     assert by_phase["close"].pads == 2 and by_phase["hold"].pads == 2
     assert by_phase["transfer"].touched_by == ()
     assert set(by_phase["hold"].touched_by) == {"hand/panda_leftfinger_collision", "hand/panda_rightfinger_collision"}
+
+
+def test_an_arm_pressing_on_a_board_is_a_collision_however_shallow():
+    cab = CabinetSpec((0.45, -0.3, 0.30), (0.85, 0.3, 0.80), shelves=(0.54,))  # board 0.52-0.54 m: stops the lift
+    scene = SceneSpec(level=1, index=0, seed=(0,), cabinet=cab, target=can_scene().target)
+    sel = side_grasp()
+    sel.path = sel.q_pregrasp[None]  # start at the pre-grasp, under the board
+    world = World(scene)
+    try:
+        by_force = execute_grasp(world, sel, config=GraspExecConfig(contact_depth=1.0))  # depth never counts
+        ignored = execute_grasp(world, sel, config=GraspExecConfig(contact_depth=1.0, contact_force=1e9))
+    finally:
+        world.close()
+    assert by_force.failure is ExecFailure.COLLISION
+    assert any(c.phase == "lift" and c.other_geom == "cab_shelf0" for c in by_force.collisions)
+    assert ignored.failure is not ExecFailure.COLLISION and not ignored.collisions
+    assert ignored.lift_height < 0.07  # the board held the hand down

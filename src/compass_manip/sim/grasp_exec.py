@@ -4,7 +4,8 @@ approach along the gripper's z, close, lift, hold, with ground-truth collision m
 Reuses `physics.PhysicsSession` (position-controlled arm and tendon gripper) as it is; the
 phase-by-phase tracking with contact monitoring lives here. A collision is any penetrating
 contact of a robot geom with a geom other than the target (the base resting on the floor
-excepted). Success: the target rose by at least `min_lift_fraction` of the commanded lift
+excepted), or a shallower one that pushes with more than `contact_force` (an arm pressing on a
+board at 0.2 mm with 60-80 N is a collision too). Success: the target rose by at least `min_lift_fraction` of the commanded lift
 (the selection's `lift_height`) after the lift and after the hold, both finger
 pads still touch it after the hold, and nothing but the target was touched.
 """
@@ -39,7 +40,8 @@ class GraspExecConfig:
     """velocity_scale of the Panda limits to the pre-grasp, approach_scale for the approach
     and lift; close_time / hold_time [s]; min_lift_fraction of the selection's commanded
     lift the target must rise (after the lift and after the hold) for success; contact_depth
-    [m]: penetration counted as a collision; check_every physics
+    [m]: penetration counted as a collision, contact_force [N]: normal force of a shallower
+    contact counted as one; check_every physics
     steps between contact checks; settle [s] after each motion."""
 
     velocity_scale: float = 0.5
@@ -48,6 +50,7 @@ class GraspExecConfig:
     hold_time: float = 2.0
     min_lift_fraction: float = 0.7
     contact_depth: float = 0.0005
+    contact_force: float = 1.0
     check_every: int = 5
     settle: float = 0.3
 
@@ -57,9 +60,9 @@ class GraspExecConfig:
             if not 0.0 < v <= 1.0:
                 raise CompassInputError(f"GraspExecConfig.{k} = {v} is not allowed; use (0, 1]")
         if not (self.close_time > 0 and self.hold_time >= 0 and 0.0 < self.min_lift_fraction <= 1.0
-                and self.check_every >= 1):
-            raise CompassInputError("close_time > 0, hold_time >= 0, 0 < min_lift_fraction <= 1 and check_every >= 1 "
-                                    "are required")
+                and self.check_every >= 1 and self.contact_depth >= 0 and self.contact_force >= 0):
+            raise CompassInputError("close_time > 0, hold_time >= 0, 0 < min_lift_fraction <= 1, check_every >= 1, "
+                                    "contact_depth >= 0 and contact_force >= 0 are required")
 
 
 @dataclass(frozen=True)
@@ -105,9 +108,10 @@ class GraspOutcome:
 
 
 class _Monitor:
-    def __init__(self, world: World, sim: PhysicsSession, depth: float):
+    def __init__(self, world: World, sim: PhysicsSession, depth: float, force: float):
         m = world.model
-        self.world, self.sim, self.depth = world, sim, depth
+        self.world, self.sim, self.depth, self.force = world, sim, depth, force
+        self._f = np.zeros(6)
         self.robot = world.is_robot_geom
         self.skip = {int(g) for g in world.target_geoms}
         self.floor, self.base = m.geom("floor").id, m.geom("link0").id
@@ -127,10 +131,12 @@ class _Monitor:
                 if c.dist < 0:
                     self.touches.setdefault(phase, set()).add(self.world._geom_name(rg))
                 continue
-            if c.dist > -self.depth:
+            if c.dist >= 0 or (rg == self.base and og == self.floor):
                 continue
-            if rg == self.base and og == self.floor:
-                continue
+            if c.dist > -self.depth:  # shallow: a collision only if it pushes
+                mujoco.mj_contactForce(self.sim.model, d, i, self._f)
+                if self._f[0] <= self.force:
+                    continue
             if (rg, og) not in self.seen:
                 self.seen[(rg, og)] = Collision(phase, self.world._geom_name(rg), self.world._geom_name(og),
                                                 float(-c.dist))
@@ -171,7 +177,7 @@ def execute_grasp(world: World, selection, q_start: np.ndarray | None = None,
     path = np.asarray(selection.path, dtype=np.float64)
     q0 = path[0] if q_start is None else np.asarray(q_start, dtype=np.float64)
     sim = PhysicsSession(world, q0, gripper_open=1.0)
-    mon = _Monitor(world, sim, config.contact_depth)
+    mon = _Monitor(world, sim, config.contact_depth, config.contact_force)
     name = world.scene.target.name
     parts = [world.model.geom(int(g)).name for g in world.target_geoms]  # the target's geoms
     every = config.check_every
