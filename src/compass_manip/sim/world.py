@@ -29,11 +29,11 @@ _TARGET_ONLY = np.array([0, 0, 0, 1, 0, 0], dtype=np.uint8)
 _SCENE_GROUPS = np.array([0, 1, 1, 1, 0, 0], dtype=np.uint8)
 LABEL_BACKGROUND, LABEL_ROBOT, LABEL_FLOOR = 0, 1, 2
 #: Contact model of the physics mode: elliptic friction cones with frictional constraints
-#: ten times stiffer than normal ones (MuJoCo's `impratio`; the default pyramidal cone with
-#: impratio 1 lets a held object creep through soft friction: 6-10 mm down the fingers in a
-#: 2 s hold of a 0.1-0.16 kg can gripped with ~9 N per pad at mu = 1, where a real grasp with
-#: a tenfold friction margin holds still). Objects: sliding friction 1.0 (rubber-like finger
-#: pads on cans and bottles; the pair takes the larger of its two geoms' values), torsional
+#: ten times harder than normal ones (MuJoCo's `impratio`). With MuJoCo's default (pyramidal
+#: cone, impratio 1) a held object creeps down the fingers through soft friction: 6-12 mm in a
+#: 2 s hold of a 0.09-0.16 kg can gripped with ~9 N per pad at mu = 1, where a real grasp with
+#: a tenfold friction margin holds still. Objects: sliding friction 1.0 (rubber-like finger
+#: pads on cans and bottles; a pair takes the larger of its two geoms' values), torsional
 #: 0.01 m, rolling 0.001 m (condim 4).
 CONE, IMPRATIO = mujoco.mjtCone.mjCONE_ELLIPTIC, 10.0
 OBJECT_FRICTION = (1.0, 0.01, 0.001)
