@@ -4,7 +4,9 @@ for the whole hold (no creep of the target down the fingers)."""
 from types import SimpleNamespace
 
 import numpy as np
+import pytest
 
+from compass_manip.errors import CompassInputError
 from compass_manip.geometry import rot_y
 from compass_manip.robot.ik import ik_tcp
 from compass_manip.robot.model import Q_HOME
@@ -92,3 +94,9 @@ def test_an_arm_pressing_on_a_board_is_a_collision_however_shallow():
     assert any(c.phase == "lift" and c.other_geom == "cab_shelf0" for c in by_force.collisions)
     assert ignored.failure is not ExecFailure.COLLISION and not ignored.collisions
     assert ignored.lift_height < 0.07  # the board held the hand down
+
+
+@pytest.mark.parametrize("bad", [{"contact_force": -1.0}, {"contact_depth": -0.001}])
+def test_negative_contact_thresholds_are_refused(bad):
+    with pytest.raises(CompassInputError, match="contact"):
+        GraspExecConfig(**bad)

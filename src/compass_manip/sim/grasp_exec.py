@@ -3,11 +3,13 @@ approach along the gripper's z, close, lift, hold, with ground-truth collision m
 
 Reuses `physics.PhysicsSession` (position-controlled arm and tendon gripper) as it is; the
 phase-by-phase tracking with contact monitoring lives here. A collision is any penetrating
-contact of a robot geom with a geom other than the target (the base resting on the floor
-excepted), or a shallower one that pushes with more than `contact_force` (an arm pressing on a
-board at 0.2 mm with 60-80 N is a collision too). Success: the target rose by at least `min_lift_fraction` of the commanded lift
-(the selection's `lift_height`) after the lift and after the hold, both finger
-pads still touch it after the hold, and nothing but the target was touched.
+contact (deeper than `contact_depth`) of a robot geom with a geom other than the target (the
+base resting on the floor excepted), or a shallower one that pushes with more than
+`contact_force` (an arm pressing on a board at 0.2 mm with 60-80 N is a collision too).
+Success: the target rose by at least `min_lift_fraction` of the commanded lift (the
+selection's `lift_height`) after the lift and after the hold, both finger pads still touch
+it after the hold, and nothing but the target was touched. `GraspOutcome.phases` records
+where the target was at the end of each phase and what touched it.
 """
 from __future__ import annotations
 
