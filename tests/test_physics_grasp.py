@@ -96,7 +96,16 @@ def test_an_arm_pressing_on_a_board_is_a_collision_however_shallow():
     assert ignored.lift_height < 0.07  # the board held the hand down
 
 
-@pytest.mark.parametrize("bad", [{"contact_force": -1.0}, {"contact_depth": -0.001}])
+def test_fingers_closed_narrower_than_min_width_are_a_miss():
+    world = World(can_scene())
+    try:  # the 6.4 cm can is held, but a hand that expects >= 7 cm between its fingers calls it a miss
+        o = execute_grasp(world, side_grasp(), config=GraspExecConfig(min_width=0.07))
+    finally:
+        world.close()
+    assert o.failure is ExecFailure.MISSED and 0.062 < o.finger_width < 0.066
+
+
+@pytest.mark.parametrize("bad", [{"contact_force": -1.0}, {"contact_depth": -0.001}, {"min_width": -0.01}])
 def test_negative_contact_thresholds_are_refused(bad):
     with pytest.raises(CompassInputError, match="contact"):
         GraspExecConfig(**bad)

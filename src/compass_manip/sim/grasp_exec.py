@@ -43,8 +43,10 @@ class GraspExecConfig:
     and lift; close_time / hold_time [s]; min_lift_fraction of the selection's commanded
     lift the target must rise (after the lift and after the hold) for success; contact_depth
     [m]: penetration counted as a collision, contact_force [N]: normal force of a shallower
-    contact counted as one; check_every physics
-    steps between contact checks; settle [s] after each motion."""
+    contact counted as one; min_width [m]: fingers closed narrower than this hold nothing (a
+    miss even if both pads graze the target, e.g. on a can's rim; the thinnest part grasped
+    here, a bottle's neck, is 2.2 cm); check_every physics steps between contact checks;
+    settle [s] after each motion."""
 
     velocity_scale: float = 0.5
     approach_scale: float = 0.15
@@ -53,6 +55,7 @@ class GraspExecConfig:
     min_lift_fraction: float = 0.7
     contact_depth: float = 0.0005
     contact_force: float = 1.0
+    min_width: float = 0.005
     check_every: int = 5
     settle: float = 0.3
 
@@ -62,9 +65,10 @@ class GraspExecConfig:
             if not 0.0 < v <= 1.0:
                 raise CompassInputError(f"GraspExecConfig.{k} = {v} is not allowed; use (0, 1]")
         if not (self.close_time > 0 and self.hold_time >= 0 and 0.0 < self.min_lift_fraction <= 1.0
-                and self.check_every >= 1 and self.contact_depth >= 0 and self.contact_force >= 0):
+                and self.check_every >= 1 and self.contact_depth >= 0 and self.contact_force >= 0
+                and self.min_width >= 0):
             raise CompassInputError("close_time > 0, hold_time >= 0, 0 < min_lift_fraction <= 1, check_every >= 1, "
-                                    "contact_depth >= 0 and contact_force >= 0 are required")
+                                    "contact_depth >= 0, contact_force >= 0 and min_width >= 0 are required")
 
 
 @dataclass(frozen=True)
@@ -205,7 +209,7 @@ def execute_grasp(world: World, selection, q_start: np.ndarray | None = None,
     _run(sim, mon, None, "close", config.close_time, every)
     trace("close")
     width = sim.finger_width
-    grasped = sim.touching(parts) == 2
+    grasped = sim.touching(parts) == 2 and width >= config.min_width
     _run(sim, mon, _timed(np.stack([selection.q_grasp, selection.q_lift]), config.approach_scale),
          "lift", 0.0, every)
     _run(sim, mon, None, "lift", config.settle, every)
