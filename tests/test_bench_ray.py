@@ -16,7 +16,7 @@ ray = pytest.importorskip("ray", reason="Ray is the optional [cluster] extra; no
 def test_ray_runs_two_trials_into_the_store(tmp_path):
     db = str(tmp_path / "r.sqlite")
     fn = partial(synthetic_trial, config=SyntheticConfig(slow_scenes=(1,), slow_s=60.0))
-    config = SweepConfig(methods=("compass",), levels=(1,), scenes=2, trials=1, workers=2, wall_cap_s=3.0,
+    config = SweepConfig(methods=("compass",), levels=(1,), scenes=2, trials=1, workers=2, wall_cap_s=10.0,
                          ray_address="local")
     summary = run_sweep(config, db, trial_fn=fn, progress=False)
     assert (summary.total, summary.ran) == (2, 2)
