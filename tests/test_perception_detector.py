@@ -160,3 +160,18 @@ def test_a_flat_strip_of_a_big_box_whose_normals_look_round_is_not_the_can(monke
     assert strict[0].extents[2] > 0.15  # the strip is as tall as the can: only the relief tells them apart
     loose = AppearanceDetector(DetectorConfig(min_curvature_ratio=0.0))(frame.observation(), target_query(can))
     assert loose[0].accepted  # without the relief check it would have been taken for the can
+
+
+@pytest.mark.parametrize("board_h, accepted", [(0.10, True), (0.12, False)])
+def test_a_partly_hidden_target_is_accepted_from_30_percent_of_its_height(detector, board_h, accepted):
+    """A 16 cm red box behind a grey board: with 37 % of its height showing it is accepted
+    (a good view sees 30 % of a target), with 24 % it stays partial; the old 60 % rule kept
+    the first partial too."""
+    tall = Primitive("target", "box", (0.025, 0.025, 0.08), (0.68, 0.0, FLOOR_Z + 0.08), 0.3, RED)
+    board = Primitive("board", "box", (0.005, 0.08, board_h / 2), (0.64, 0.0, FLOOR_Z + board_h / 2), 0.0, GREY)
+    frame, _ = _observe(_scene([board], target=tall))
+    dets = detector(frame.observation(), target_query(tall))
+    assert len(dets) == 1 and dets[0].shape == "box"
+    assert dets[0].verdict is (Verdict.ACCEPTED if accepted else Verdict.PARTIAL)
+    strict = AppearanceDetector(DetectorConfig(min_completeness=0.6))(frame.observation(), target_query(tall))
+    assert strict[0].verdict is Verdict.PARTIAL
