@@ -2,7 +2,6 @@
 (the default trial runs `TrialConfig()`): put `benchmarks/` on PYTHONPATH and pass e.g.
 `--trial-fn trial_variants:grasp_map_no_near_body`.
 
-* detector_partial: the detector accepts partial views (30 % of the query's height and width).
 * grasp_map_no_near_body: GRASP and INSPECT on the 1 cm map of every depth frame
   (`GraspTrialConfig.grasp_map`), with no unknown space near the body taken as free
   (`near_body_free=False`).
@@ -22,9 +21,3 @@ def grasp_map_no_near_body(spec) -> tuple[dict, dict]:
     return _run(spec, TrialConfig(grasp=GraspTrialConfig(grasp_map=True, near_body_free=False)))
 
 
-
-def detector_partial(spec) -> tuple[dict, dict]:
-    """The appearance detector accepting a region of the right shape and colour when 30 % of
-    the query's height and width show (`DetectorConfig.min_completeness` 0.6 by default)."""
-    from compass_manip.perception.detector import DetectorConfig
-    return _run(spec, TrialConfig(detector=DetectorConfig(min_completeness=0.3)))
