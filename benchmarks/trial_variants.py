@@ -19,5 +19,3 @@ def _run(spec, config: TrialConfig) -> tuple[dict, dict]:
 
 def grasp_map_no_near_body(spec) -> tuple[dict, dict]:
     return _run(spec, TrialConfig(grasp=GraspTrialConfig(grasp_map=True, near_body_free=False)))
-
-
