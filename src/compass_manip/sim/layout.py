@@ -47,7 +47,7 @@ def _u(rng, lo, hi) -> float:
 SEVERE_CLEARANCE = (0.34, 0.35)
 SEVERE_Z_BOTTOM = (0.26, 0.30)
 SEVERE_MIN_X_BACK = 0.74
-SEVERE_RAIL = (0.03, 0.045)
+SEVERE_RAIL = (0.05, 0.065)
 
 
 def draw_cabinet(rng: np.random.Generator, severe: bool = False) -> tuple[CabinetSpec, list[Compartment]]:
