@@ -1,19 +1,25 @@
-"""Feasibility of the 'tall target behind a low wide occluder, grasped horizontally over it'
-idea for severe levels, on hand-built scenes (a measurement, not a test).
+"""Feasibility of the severe layout "a tall target behind a low wide box, grasped
+horizontally over it" on hand-built scenes (a measurement, not a test; docs/scenes.md,
+"Third attempt").
 
-A cabinet with one shelf; the target (a tall narrow box or a bottle) in the bottom storey,
-a low wide box (occluder) `gap` m in front of it, its top `dh` m below the target's top; an
-optional face-frame rail under the shelf above. Per variant: best visibility over the
-reference fixed-view set (3 x 3 grid | FV baseline's views), best visibility from a grid of
-views inside the opening aimed at the target, how far each grasp candidate gets (per
-approach pitch) and the certificate (grasp, views, paths, physics).
+A cabinet 0.32 m deep with its opening at x = 0.43 m and one shelf; the target (a tall
+narrow box, or with --cat bottle a bottle whose neck is --neck m long) in the bottom storey
+(floor z = 0.27 m), a box (the occluder) `gap` m in front of it, its top `dh` m below the
+target's top; an optional face-frame rail under the shelf. Per variant: best visibility over
+the reference fixed-view set (3 x 3 grid | FV baseline's views), the best view of a scan of
+poses aimed at the target (from 10 cm outside the opening to 10 cm before the target), with
+--stages how far each grasp candidate gets per approach pitch, and the certificate (grasp,
+views, paths, physics). The bottle's neck radius and mass come from the environment
+variables NECK_R [m] (default 0.013) and MASS [kg] (default 0.2).
 
   python scripts/neck_feasibility.py --grid H:H_T:DH:W_O:D_O:GAP:X_T:RAIL [--cat box|bottle]
+  (each field a comma-separated list; every combination is one variant)
 """
 from __future__ import annotations
 
 import argparse
 import itertools
+import os
 import time
 from collections import Counter
 
@@ -27,7 +33,6 @@ from compass_manip.sim.scenes import CabinetSpec, SceneSpec
 from compass_manip.sim.world import World
 
 
-import os
 NECK_R = float(os.environ.get("NECK_R", "0.013"))
 MASS = float(os.environ.get("MASS", "0.2"))
 
