@@ -1,18 +1,18 @@
 """The hiding layout of the severe levels (2 and 4): a tall bottle behind a low, wide box.
 
-The target is a bottle 0.20-0.235 m tall with a long neck (8-9.5 cm), standing at the back of
-the bottom storey (`layout.draw_cabinet(rng, severe=True)`: 0.325-0.35 m clearance, a
-face-frame rail under the shelf above). A cereal box lying on its side (4.5-5 cm deep,
-19-24 cm wide) stands 1.5-2 cm in front of it, its top 6.2-7 cm below the bottle's top, so
-from outside the opening only the neck shows above it: the rail and the shelf above limit
-how steeply an outside eye looks down behind the box (the reference fixed views see
-0.2-0.29 of such a target, measured in `scripts/neck_feasibility.py`). The wrist camera,
-inside the storey above the box, looks down behind it. The only grasp is horizontal (or 15
-deg below) on the neck, over the box: the palm reaches ~3.7 cm below the TCP, the wrist
-~5.3 cm (`oracle.NECK_*`); so the box's front face stays within 10 cm of the bottle's axis
-(the wrist passes in front of it) and the storey leaves >= 12.5 cm above the bottle's top
-for the hand, its camera and the lift. The corridor of the hand (above the box) and of the
-wrist and forearm (in front of it) is kept free of other objects.
+The target is a light bottle 0.215-0.235 m tall with a long neck (8-9 cm), standing at the
+back of the bottom storey (`layout.draw_cabinet(rng, severe=True)`: 0.34-0.35 m clearance, a
+5-6.5 cm face-frame rail under the shelf above). A cereal box lying on its side (4.5-5 cm
+deep, 19-24 cm wide) stands 1.5-2 cm in front of it, its top 6.2-7 cm below the bottle's top
+and above its shoulder, so from outside the opening only the neck shows above it; the rail
+and the shelf above limit how steeply an outside eye looks down behind the box (the
+reference fixed views see 0.19-0.28 of the default set's severe targets, docs/scenes.md).
+The wrist camera looks down behind the box from above it. The only grasp is horizontal on
+the neck (`oracle.NECK_*`), over the box: in the planner's sphere model the palm reaches
+3.7 cm below the TCP and link 7 5.3 cm below it from 9.5 cm behind it, so the box's front
+face stays within 10 cm of the bottle's axis and the storey leaves >= 12.5 cm above the
+bottle's top for the hand, its camera and the lift. The corridor of the hand (above the
+box) and of the wrist and forearm (in front of it) is kept free of other objects.
 """
 from __future__ import annotations
 
