@@ -9,7 +9,8 @@ Run: `.venv/bin/python benchmarks/bench_grasp.py [--count N] [--levels 1 2 3 4] 
 `make bench` runs the default: scene indices 0-1 of each level (8 scenes), constraints on
 and off, a few minutes. Figures: grasp.select_ms (selection = candidates + constraints +
 the path to the pre-grasp, constraints on; median / p90 [ms]), grasp.only_success_rate (on
-that fixed set, constraints on) and the side-by-side on/off success and collision counts.
+that fixed set, constraints on), the side-by-side on/off success and collision counts, and
+the selected grasps that failed in physics by reason (grasp.exec_failures.*).
 The numbers in docs/grasping.md name their own --start/--count.
 """
 from __future__ import annotations
@@ -88,6 +89,9 @@ def summarize(recs: list[dict], n_scenes: int) -> None:
         emit_value(f"grasp.success_rate.constraints_{tag}", sum(r["success"] for r in rs) / n, "fraction", n=n, **ctx)
         emit_value(f"grasp.collision_trials.constraints_{tag}", sum(bool(r["collisions"]) for r in rs), "trials",
                    n=n, **ctx)
+        failed = [r["exec_failure"] for r in rs if r["selection_failure"] is None and r["exec_failure"] is not None]
+        emit_value(f"grasp.exec_failures.constraints_{tag}", len(failed), "trials", n=n,
+                   by_reason={k: failed.count(k) for k in sorted(set(failed))}, **ctx)
         sel = [r for r in rs if r["select_time_s"] is not None]
         emit_samples(f"grasp.select_time.constraints_{tag}", [1e3 * r["select_time_s"] for r in sel], "ms", **ctx)
         ok = [r["gpq"] for r in rs if r["selection_failure"] is None and r["gpq"] is not None]

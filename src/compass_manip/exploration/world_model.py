@@ -10,12 +10,14 @@ unsafe even inside the swept space.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numba as nb
 import numpy as np
 
-from ..mapping.distance import DistanceField
+from ..mapping.distance import unsafe_mask
+from ..mapping.distance_incremental import CappedDistance
 from ..mapping.frontiers import FrontierCluster, FrontierConfig, find_frontiers
 from ..mapping.observe import integrate_observation
 from ..mapping.occupancy import MapConfig, OccupancyMap
@@ -157,6 +159,14 @@ def method_safe_voxels(occ: OccupancyMap, swept: np.ndarray, assumed_free: np.nd
     return (swept | assumed_free) & ~occupied
 
 
+def capped_field(spheres, validity: ValidityConfig, resolution: float) -> CappedDistance:
+    """The distance field of a checker with these spheres and settings, capped where its
+    verdicts stop depending on it (`ValidityChecker.grid_cap_m`) and updated where the map
+    changed (`mapping.distance_incremental`): the same verdicts as the full field."""
+    probe = ValidityChecker(spheres, config=validity)
+    return CappedDistance(resolution, int(math.ceil(probe.grid_cap_m(resolution) / resolution)) + 1)
+
+
 class WorldModel:
     """Occupancy map + swept space + validity checker of one trial (one per method)."""
 
@@ -171,6 +181,7 @@ class WorldModel:
         self.q = np.asarray(q_start, dtype=np.float64).copy()
         self._checker: ValidityChecker | None = None
         self._base_checker: ValidityChecker | None = None
+        self._field: CappedDistance | None = None  # the distance field, updated where the map changed
         self._frontiers: tuple[FrontierCluster, ...] | None = None
         self.assumed_free = np.zeros(self.occ.shape, bool)
         if task is not None and self.config.assume_free_outside_space:
@@ -203,8 +214,11 @@ class WorldModel:
         until the next observation or executed path."""
         if self._checker is None:
             safe = method_safe_voxels(self.occ, self.swept, self.assumed_free, self.config.obstacle_halo)
-            field_ = DistanceField.from_map(self.occ, safe_voxels=safe)
-            self._checker = self._checker_for(DistanceGrid.from_distance_field(field_))
+            unsafe = unsafe_mask(self.occ, safe_voxels=safe)
+            if self._field is None:
+                self._field = capped_field(self.spheres, self.config.validity, self.occ.resolution)
+            grid = DistanceGrid(self._field.update(unsafe), self.occ.grid_min, self.occ.resolution)
+            self._checker = self._checker_for(grid)
         return self._checker
 
     def _checker_for(self, grid: DistanceGrid) -> ValidityChecker:

@@ -187,6 +187,16 @@ class ValidityChecker:
                                                 self.config.outside_grid_free))
         return out
 
+    def grid_cap_m(self, resolution: float) -> float:
+        """A distance [m] above which a grid of this resolution can read the same for this
+        checker's verdicts: every environment test compares the grid's clearance bound
+        (`grid_clearance`: the voxel's distance less at most a voxel diagonal) with a
+        link's, cluster's or sphere's radius plus the margin. A field capped at this value
+        (`mapping.distance_incremental`) gives the same valid / invalid answers."""
+        rs = self._p.robot
+        radius = max(float(np.max(rs.link_r)), float(np.max(rs.clu_r, initial=0.0)), float(np.max(rs.radii)))
+        return radius + self.config.margin + math.sqrt(3.0) * float(resolution)
+
     def kernel_args(self) -> KernelArgs:
         """(kin, robot, grid, prims, limits, params) for `config_valid_kernel` and friends."""
         p = self._p

@@ -125,6 +125,7 @@ class GraspOnlyResult:
             "n_inspected": self.n_inspected,
             "lift_height": None if o is None else round(o.lift_height, 4),
             "hold_height": None if o is None else round(o.hold_height, 4),
+            "exec_phases": None if o is None else [[p.phase, round(p.moved, 4), p.pads] for p in o.phases],
             "map_time_s": round(self.map_time_s, 3), "way_mask_s": round(self.way_mask_s, 3),
             "fine_map_s": round(self.fine_map_s, 3),
             "stage_times_ms": None if s is None else {k: round(1e3 * v, 1) for k, v in s.stage_times.items()},
