@@ -1,6 +1,6 @@
 """The hiding layout of the severe levels (2 and 4): a tall bottle behind a low, wide box.
 
-The target is a light bottle 0.215-0.235 m tall with a long neck (8-9 cm), standing at the
+The target is a bottle 0.215-0.235 m tall with a long neck (8-9 cm), standing at the
 back of the bottom storey (`layout.draw_cabinet(rng, severe=True)`: 0.34-0.35 m clearance, a
 5-6.5 cm face-frame rail under the shelf above). A cereal box lying on its side (4.5-5 cm
 deep, 19-24 cm wide) stands 1.5-2 cm in front of it, its top 6.2-7 cm below the bottle's top
@@ -27,7 +27,7 @@ TARGET_HEIGHT = (0.215, 0.235)
 BODY_RADIUS = (0.03, 0.034)
 NECK_RADIUS = (0.013, 0.016)
 NECK_HEIGHT = (0.08, 0.09)
-TARGET_MASS = (0.06, 0.10)
+TARGET_MASS = (0.08, 0.2)
 #: Room above the bottle's top [m] the hand, its camera and the 4 cm lift need.
 HEADROOM = 0.125
 #: Occluder: its top below the bottle's top [m], gap to the bottle [m], depth and width [m].
