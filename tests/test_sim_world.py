@@ -1,16 +1,22 @@
 """Rendering, ray casting, geometry of frames, contacts."""
+from pathlib import Path
+
 import numpy as np
 import pytest
 
 from compass_manip.errors import CompassInputError
 from compass_manip.robot.model import Q_HOME
 from compass_manip.sim.certify import regenerate
+from compass_manip.sim.scenes import SceneSpec
 from compass_manip.sim.world import World
+
+#: a Level-4 scene of the previous generator (many small parts), kept as data
+SCENE4 = Path(__file__).parent / "data" / "level4_scene0_seed0_v2.json"
 
 
 @pytest.fixture(scope="module")
 def world4():
-    w = World(regenerate((0, 4, 0, 0)))
+    w = World(SceneSpec.from_json(SCENE4.read_text()))
     yield w
     w.close()
 

@@ -40,13 +40,32 @@ def _u(rng, lo, hi) -> float:
     return float(rng.uniform(lo, hi))
 
 
-def draw_cabinet(rng: np.random.Generator) -> tuple[CabinetSpec, list[Compartment]]:
-    """A cabinet and its compartments (bottom row first)."""
+#: Severe levels' bottom storey (`draw_cabinet(rng, severe=True)`): clearance [m] (room for a
+#: tall target and the hand lifting it near its top), floor height [m] (the storey stays below
+#: the start camera's view), least depth of the interior's back wall from the base [m] (the
+#: target stands deep) and the face-frame rail under the shelves [m].
+SEVERE_CLEARANCE = (0.34, 0.35)
+SEVERE_Z_BOTTOM = (0.26, 0.30)
+SEVERE_MIN_X_BACK = 0.74
+SEVERE_RAIL = (0.05, 0.065)
+
+
+def draw_cabinet(rng: np.random.Generator, severe: bool = False) -> tuple[CabinetSpec, list[Compartment]]:
+    """A cabinet and its compartments (bottom row first). severe: the bottom storey is
+    SEVERE_CLEARANCE tall at SEVERE_Z_BOTTOM, the interior reaches SEVERE_MIN_X_BACK and the
+    shelves carry a face-frame rail (extra draws only then: other levels draw as before)."""
     n_shelves = int(rng.integers(1, 4))
     clear = [_u(rng, 0.20, 0.35) for _ in range(n_shelves + 1)]
+    if severe:
+        clear[0] = _u(rng, *SEVERE_CLEARANCE)
     total = sum(clear) + n_shelves * T
     z_bottom = _u(rng, 0.26, float(np.clip(1.30 - total, 0.27, 0.40)))
     x_front, depth = _u(rng, 0.40, 0.47), _u(rng, 0.30, 0.38)
+    rail = 0.0
+    if severe:
+        z_bottom = _u(rng, *SEVERE_Z_BOTTOM)
+        depth = _u(rng, max(0.30, SEVERE_MIN_X_BACK - x_front), 0.38)
+        rail = _u(rng, *SEVERE_RAIL)
     width, yc = _u(rng, 0.56, 0.80), _u(rng, -0.05, 0.05)
     lo = (x_front, yc - width / 2, z_bottom)
     hi = (x_front + depth, yc + width / 2, z_bottom + total)
@@ -76,7 +95,7 @@ def draw_cabinet(rng: np.random.Generator) -> tuple[CabinetSpec, list[Compartmen
             corner = _corner(rng, inner, comps, r, hi, zf, zc)
             if corner is not None:
                 comps.append(corner)
-    cab = CabinetSpec(lo, hi, frame, tuple(shelves), tuple(inner))
+    cab = CabinetSpec(lo, hi, frame, tuple(shelves), tuple(inner), rail=rail)
     return cab, comps
 
 

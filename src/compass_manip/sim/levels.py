@@ -12,9 +12,10 @@ objects (`_keep_hand_room`); occluders stand beside that corridor, placed by wha
 L1 moderate: the target stands on a storey below the start camera's field of view, in the
    back part of a compartment, with one large object beside its corridor hiding it from
    views on that side.
-L2 severe: the target stands at the back of a diagonal corridor (yaw SEVERE_YAW) flanked on
-   both sides by tall objects reaching nearly to the shelf above: only views along the
-   corridor, at the target's storey, see it.
+L2 severe (`severe`): a tall bottle at the back of the bottom storey, a cereal box lying on
+   its side just in front of it with its top 6-7 cm below the bottle's top, a face-frame
+   rail under the shelf above: from outside only the neck shows; the wrist camera looks
+   down behind the box from inside the storey, and the only grasp is on the neck, over it.
 L3 = L1 + obstacles near the base and arm; L4 = L2 + those obstacles. The obstacle variant
    (overhead plate / lateral walls / bar, wall and post) is chosen by scene index, so
    rejection never drops a variant.
@@ -34,6 +35,7 @@ from .layout import Compartment, Placer, box_discs, draw_cabinet
 from .objects import (LARGE_CATEGORIES, TARGET_CATEGORIES, build_object, draw_dims, draw_mass, footprint_radius,
                       height_of, lying_book)
 from .scenes import Primitive, SceneObject, SceneSpec
+from .severe import severe_target
 
 LEVELS = (1, 2, 3, 4)
 #: The start camera (robot.model.Q_HOME) sits here [m], looking along +x.
@@ -48,6 +50,9 @@ N_OBJECTS = (8, 15)
 COLOUR_DISTRACTOR_CATEGORIES = ("cereal_box", "book", "bowl")
 #: Base-obstacle variants, chosen by scene index (stratified).
 OBSTACLE_VARIANTS = ("overhead_plate", "lateral_walls", "bar_wall_post")  # the plate comes with one wall
+#: Level 4's variants: walls on both sides leave the severe layout's neck grasp no elbow room
+#: (under the shelf above, the elbow swings out to |y| ~ 0.35 m; docs/scenes.md).
+SEVERE_OBSTACLE_VARIANTS = ("overhead_plate", "bar_wall_post")
 
 
 def check_level(level: object) -> int:
@@ -94,49 +99,34 @@ class _Builder:
         return None
 
 
-#: Yaw [rad] of the approach corridor of severe targets.
-SEVERE_YAW = 0.6
 #: Farthest target centre [m] from the base along x: deeper, the low storeys are out of reach.
 MAX_TARGET_X = 0.72
 #: Room the hand needs beside a target [m]: the Panda hand is ~0.2 m wide along its closing axis.
 HAND_HALF_WIDTH = 0.115
 
 
-def _target(b: _Builder, severe: bool) -> tuple[SceneObject, Compartment]:
-    """The target and its compartment. Severe: at the back, in a back-corner compartment
-    (hidden by its lip) or in a storey tall enough to reach over an occluder; always at least
-    HAND_HALF_WIDTH from the side walls so a grasp can exist."""
+def _target(b: _Builder) -> tuple[SceneObject, Compartment]:
+    """The target and its compartment (moderate levels): in the back part of a compartment
+    out of the start camera's view, at least HAND_HALF_WIDTH from the side walls so a grasp
+    can exist."""
     rng = b.rng
     ok = [c for c in b.comps if _reachable(c) and (c.x_hi - c.x_lo) >= 0.12
           and (c.y_hi - c.y_lo) >= 2 * HAND_HALF_WIDTH + 0.01]
-    corners = [c for c in ok if c.corner]
     normal = [c for c in ok if not c.corner]
-    if not normal and not corners:
+    if not normal:
         raise _Retry("no compartment for the target")
     category = TARGET_CATEGORIES[int(rng.integers(len(TARGET_CATEGORIES)))]
     colour = OBJECT_COLOURS[int(rng.integers(len(OBJECT_COLOURS)))]
     for _ in range(60):
         dims = _target_dims(category, rng)
         r, h = footprint_radius(category, dims), height_of(category, dims)
-        use_corner = severe and corners and (not normal or rng.random() < 0.4)
-        c = (corners if use_corner else normal)[int(rng.integers(len(corners if use_corner else normal)))]
-        if use_corner and h > c.lip_z - c.z_floor - 0.005:
-            continue
+        c = normal[int(rng.integers(len(normal)))]
         if c.clearance < h + 0.10:
             continue
         if _in_start_view(c, 0.5 * (c.x_lo + c.x_hi)):
             continue
         y = _u(rng, c.y_lo + HAND_HALF_WIDTH, c.y_hi - HAND_HALF_WIDTH)
-        if severe:  # at the back, near the robot's centre line: the corridor leaves it sideways
-            x = min(c.x_hi - max(r, 0.085) - _u(rng, 0.005, 0.04), MAX_TARGET_X)
-            side = 1.0 if rng.random() < 0.5 else -1.0  # the corridor's mouth leaves towards this side
-            edge = c.y_hi if side > 0 else c.y_lo
-            mouth = edge - side * _u(rng, HAND_HALF_WIDTH + 0.01, HAND_HALF_WIDTH + 0.06)
-            y = mouth - side * (x - c.x_lo) * math.tan(SEVERE_YAW)
-            if not c.y_lo + HAND_HALF_WIDTH <= y <= c.y_hi - HAND_HALF_WIDTH:
-                continue
-        else:
-            x = min(_u(rng, c.x_lo + 0.45 * (c.x_hi - c.x_lo), c.x_hi - r - 0.005), MAX_TARGET_X)
+        x = min(_u(rng, c.x_lo + 0.45 * (c.x_hi - c.x_lo), c.x_hi - r - 0.005), MAX_TARGET_X)
         if not b.placer.fits(c, x, y, r, h + 0.06):  # room above for the fingers
             continue
         yaw = _u(rng, -0.5, 0.5) if category == "box" else 0.0
@@ -205,54 +195,12 @@ def _side_occluder(b: _Builder, t: SceneObject, c: Compartment, side: int, angle
     return None
 
 
-def _occluders(b: _Builder, t: SceneObject, c: Compartment, severe: bool) -> list[SceneObject]:
-    """Moderate: one large object on one side of the approach corridor (it hides the target
-    from views on that side). Severe: one on each side, closer to the corridor and taller, so
-    only views close to the corridor's axis, at the target's storey, see the target."""
-    rng = b.rng
-    side = 1 if rng.random() < 0.5 else -1
-    if not severe:
-        o = _side_occluder(b, t, c, side, (0.7, 1.2), (0.0, 0.04))
-        return [o] if o is not None else []
-    psi = _severe_yaw(t, c)
-    out = [_flank(b, t, c, s, psi, k) for k in (0, 1) for s in (side, -side)]
-    return [o for o in out if o is not None] if all(o is not None for o in out[:2]) else []
-
-
-def _severe_yaw(t: SceneObject, c: Compartment) -> float:
-    """Approach yaw [rad] of a severe target's corridor: diagonal (SEVERE_YAW, in the grasp
-    candidates' set), its mouth near a side of the opening: the corridor's line points past
-    the reference fixed views, and the start camera looks at its flank."""
-    return -SEVERE_YAW if t.pos[1] < 0.5 * (c.y_lo + c.y_hi) else SEVERE_YAW
-
-
-def _flank(b: _Builder, t: SceneObject, c: Compartment, side: int, psi: float, k: int = 0) -> SceneObject | None:
-    """A large object beside the approach corridor, its wide face along x: the target sits at
-    the end of a canyon that only a view along the corridor, at the target's storey, sees into."""
-    rng = b.rng
-    lo, hi = t.aabb()
-    for _ in range(25):
-        category = LARGE_CATEGORIES[int(rng.integers(2))]
-        dims = list(draw_dims(category, rng))
-        a = np.array([math.cos(psi), math.sin(psi)])
-        n = np.array([-a[1], a[0]])
-        along = _r_front(t) - dims[1] / 2 - (_u(rng, 0.0, 0.05) if k == 0 else _u(rng, 0.17, 0.22))
-        p = np.array(t.pos[:2]) + along * a + side * (HAND_HALF_WIDTH - 0.02 + b.placer.gap + dims[0] / 2 + _u(rng, 0.0, 0.03)) * n
-        dims[2] = float(max(min(c.clearance - _u(rng, 0.025, 0.04), 0.30), hi[2] - c.z_floor + 0.03))
-        obj = build_object(b.name(category), category, _other_colour(rng, t.colour), tuple(dims),
-                           draw_mass(category, rng), p[0], p[1], c.z_floor, psi + math.pi / 2 + _u(rng, -0.08, 0.08),
-                           "occluder")
-        if _inside(obj, c) and _free(b, obj):
-            b.placer.add_box(obj)
-            b.objects.append(obj)
-            return obj
-    return None
-
-
-def _r_front(t: SceneObject) -> float:
-    """Half the target's depth along x [m]."""
-    lo, hi = t.aabb()
-    return 0.5 * float(hi[0] - lo[0])
+def _occluders(b: _Builder, t: SceneObject, c: Compartment) -> list[SceneObject]:
+    """One large object on one side of the approach corridor: it hides the target from views
+    on that side (moderate levels)."""
+    side = 1 if b.rng.random() < 0.5 else -1
+    o = _side_occluder(b, t, c, side, (0.7, 1.2), (0.0, 0.04))
+    return [o] if o is not None else []
 
 
 def _inside(obj: SceneObject, c: Compartment) -> bool:
@@ -340,12 +288,20 @@ def generate_scene(level: int, index: int, rng: np.random.Generator) -> SceneSpe
 
 
 def _draw(level: int, index: int, rng: np.random.Generator, severe: bool) -> SceneSpec:
-    cab, comps = draw_cabinet(rng)
+    cab, comps = draw_cabinet(rng, severe)
     b = _Builder(rng, cab, comps)
-    target, comp = _target(b, severe)
-    _keep_hand_room(b, target, comp, _severe_yaw(target, comp) if severe else 0.0)
-    if not _occluders(b, target, comp, severe) and not comp.corner:
-        raise _Retry("no occluder fits")
+    if severe:  # a tall bottle behind a low wide box, grasped by the neck over it (`severe`)
+        colour = OBJECT_COLOURS[int(rng.integers(len(OBJECT_COLOURS)))]
+        found = severe_target(rng, b.placer, comps, colour, _other_colour(rng, colour), b.name("cereal_box"))
+        if found is None:
+            raise _Retry("no room for the severe layout")
+        target, occluder, comp = found
+        b.objects.append(occluder)
+    else:
+        target, comp = _target(b)
+        _keep_hand_room(b, target, comp, 0.0)
+        if not _occluders(b, target, comp) and not comp.corner:
+            raise _Retry("no occluder fits")
     n_total = int(rng.integers(N_OBJECTS[0], N_OBJECTS[1] + 1))
     others = [c for c in COLOUR_DISTRACTOR_CATEGORIES if c != target.category]
     colour_cat = others[int(rng.integers(len(others)))]
@@ -368,9 +324,10 @@ def _draw(level: int, index: int, rng: np.random.Generator, severe: bool) -> Sce
         b.place(cat, _other_colour(rng, target.colour), "clutter", tries=8)
     if not any(o.role == "decoy" for o in b.objects) or len(b.objects) + 1 < N_OBJECTS[0]:
         raise _Retry("too few objects")
-    obstacles = _base_obstacles(rng, OBSTACLE_VARIANTS[index % len(OBSTACLE_VARIANTS)],
-                                 cab.interior_min[2]) if level >= 3 else []
-    extra = {"obstacle_variant": OBSTACLE_VARIANTS[index % len(OBSTACLE_VARIANTS)] if level >= 3 else "",
+    variants = SEVERE_OBSTACLE_VARIANTS if severe else OBSTACLE_VARIANTS
+    variant = variants[index % len(variants)] if level >= 3 else ""
+    obstacles = _base_obstacles(rng, variant, cab.interior_min[2]) if level >= 3 else []
+    extra = {"obstacle_variant": variant,
              "target_row": comp.row, "target_in_corner_compartment": bool(comp.corner)}
     return SceneSpec(level=level, index=index, seed=(), cabinet=cab, target=target, clutter=tuple(b.objects),
                      base_obstacles=tuple(obstacles), extra=extra)

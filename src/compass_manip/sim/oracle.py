@@ -95,6 +95,12 @@ MAX_GRASP_WIDTH = GRIPPER_MAX_WIDTH - 0.012
 #: approach angles below the horizontal [deg] and yaws about +x [rad] of the candidates
 APPROACH_PITCH_DEG = (0.0, 15.0, 30.0, 45.0, 60.0, 75.0, 90.0)
 APPROACH_YAW = (0.0, 0.3, -0.3, 0.6, -0.6, 0.9, -0.9)
+#: A bottle's neck is a grasp candidate too when it is at least this long [m]: the TCP sits
+#: NECK_TCP_DEPTH below its top and the palm reaches ~3.7 cm below the TCP (the sphere model),
+#: so a shorter neck puts the palm on the shoulder. Near-horizontal approaches only.
+NECK_MIN_HEIGHT = 0.055
+NECK_TCP_DEPTH = 0.018
+NECK_PITCH_DEG = (0.0, 15.0)
 
 
 def grasp_candidates(scene: SceneSpec) -> list[tuple[np.ndarray, float]]:
@@ -104,12 +110,25 @@ def grasp_candidates(scene: SceneSpec) -> list[tuple[np.ndarray, float]]:
     The closing axis is horizontal; for boxes it is a face normal (the fingers close on two
     parallel faces). The TCP sits on the grasped part's axis 2.5 cm below its top (lower, the
     forearm's conservative spheres reach the shelf the target stands on).
-    Both rolls of the hand are candidates (the one with the wrist camera above first).
+    Both rolls of the hand are candidates (the one with the wrist camera above first). A
+    bottle with a neck of at least NECK_MIN_HEIGHT adds near-horizontal candidates on the
+    neck (TCP NECK_TCP_DEPTH below its top), each right after the body candidate of the same
+    approach direction.
     """
     tgt = scene.target
-    body = tgt.parts[0]
+    out = _part_candidates(tgt.parts[0], tgt.parts[0].pos[2] + tgt.parts[0].half_extents[2] - 0.025,
+                           APPROACH_PITCH_DEG, 0.0)
+    if tgt.category == "bottle" and len(tgt.parts) > 1 and 2 * tgt.parts[1].half_extents[2] >= NECK_MIN_HEIGHT - 1e-9:
+        neck = tgt.parts[1]
+        out += _part_candidates(neck, neck.pos[2] + neck.half_extents[2] - NECK_TCP_DEPTH, NECK_PITCH_DEG, 5e-4)
+    out.sort(key=lambda c: c[0])
+    return [(T, deg) for _, T, deg in out]
+
+
+def _part_candidates(body, z_tcp: float, pitches, key_offset: float) -> list:
+    """(sort key, T_world_tcp, approach_deg) of the antipodal candidates on one part, the
+    TCP on its axis at height z_tcp [m]."""
     h = body.half_extents
-    top = body.pos[2] + h[2]
     if body.shape == "box":  # approach along a face normal: the fingers close on the other two faces
         yaws = []
         for k in range(4):
@@ -119,20 +138,19 @@ def grasp_candidates(scene: SceneSpec) -> list[tuple[np.ndarray, float]]:
     else:
         yaws = [(yaw, 2 * float(h[0])) for yaw in APPROACH_YAW]
     out = []
-    for pitch_deg in APPROACH_PITCH_DEG:
+    for pitch_deg in pitches:
         pitch = np.radians(pitch_deg)
         for yaw, width in (yaws if pitch_deg < 90 else yaws[:1]):
             if width > MAX_GRASP_WIDTH:
                 continue
             a = np.array([np.cos(yaw) * np.cos(pitch), np.sin(yaw) * np.cos(pitch), -np.sin(pitch)])
-            p = np.array([body.pos[0], body.pos[1], top - 0.025])
+            p = np.array([body.pos[0], body.pos[1], z_tcp])
             for sign in (-1.0, 1.0):  # closing axis horizontal, normal to a; camera above the hand first
                 y = sign * np.array([-np.sin(yaw), np.cos(yaw), 0.0])
                 T = make_T(np.column_stack([np.cross(y, a), y, a]), p)
-                key = float(np.arccos(np.clip(a[0], -1.0, 1.0))) + (0.0 if T[2, 0] >= -1e-9 else 1e-3)
+                key = float(np.arccos(np.clip(a[0], -1.0, 1.0))) + (0.0 if T[2, 0] >= -1e-9 else 1e-3) + key_offset
                 out.append((key, T, float(pitch_deg)))
-    out.sort(key=lambda c: c[0])
-    return [(T, deg) for _, T, deg in out]
+    return out
 
 
 def grasp_solutions(ik: PandaIK, T_world_tcp: np.ndarray, q_ref: np.ndarray, n_q7: int = 12) -> np.ndarray:
