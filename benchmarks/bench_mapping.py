@@ -30,6 +30,7 @@ from compass_manip.geometry import look_at
 from compass_manip.mapping import infogain
 from compass_manip.exploration.world_model import WorldModelConfig, capped_field, default_map_config
 from compass_manip.mapping.distance import DistanceField, unsafe_mask
+from compass_manip.motion.validity import ValidityChecker
 from compass_manip.robot.model import RobotConfig
 from compass_manip.robot.spheres import panda_sphere_model
 from compass_manip.mapping.frontiers import find_frontiers
@@ -107,7 +108,8 @@ def _distance_update(frames) -> dict:
     """The exploration's field (2 cm map, capped as WorldModel caps it) after each frame:
     `CappedDistance.update` against the full transform of the same mask."""
     occ = OccupancyMap(default_map_config())
-    capped = capped_field(panda_sphere_model(RobotConfig()), WorldModelConfig().validity, occ.resolution)
+    capped = capped_field(ValidityChecker(panda_sphere_model(RobotConfig()), config=WorldModelConfig().validity),
+                          occ.resolution)
     inc, full = [], []
     for depth, K, T in frames:
         occ.integrate(depth, K, T, MAX_RANGE)

@@ -85,7 +85,7 @@ def test_checker_verdicts_equal_on_the_capped_field():
         s = rng.integers(2, 10, 3)
         unsafe[c[0]:c[0] + s[0], c[1]:c[1] + s[1], c[2]:c[2] + s[2]] = True
     full = DistanceField.from_unsafe(unsafe, grid_min, RES).distances
-    capped = capped_field(spheres, cfg, RES).update(unsafe)
+    capped = capped_field(ValidityChecker(spheres, config=cfg), RES).update(unsafe)
     q_home = np.array([0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785])
     Q = q_home + rng.normal(0.0, 0.6, (3000, 7))
     Q = np.clip(Q, [-2.8, -1.7, -2.8, -3.0, -2.8, 0.0, -2.8], [2.8, 1.7, 2.8, -0.1, 2.8, 3.7, 2.8])

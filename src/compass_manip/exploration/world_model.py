@@ -166,12 +166,11 @@ def method_safe_voxels(occ: OccupancyMap, swept: np.ndarray, assumed_free: np.nd
     return (swept | assumed_free) & ~occupied
 
 
-def capped_field(spheres, validity: ValidityConfig, resolution: float) -> CappedDistance:
-    """The distance field of a checker with these spheres and settings, capped where its
-    verdicts stop depending on it (`ValidityChecker.grid_cap_m`) and updated where the map
+def capped_field(checker: ValidityChecker, resolution: float) -> CappedDistance:
+    """The distance field for this checker on a grid of that resolution [m], capped where
+    its verdicts stop depending on it (`ValidityChecker.grid_cap_m`) and updated where the map
     changed (`mapping.distance_incremental`): the same verdicts as the full field."""
-    probe = ValidityChecker(spheres, config=validity)
-    return CappedDistance(resolution, int(math.ceil(probe.grid_cap_m(resolution) / resolution)) + 1)
+    return CappedDistance(resolution, int(math.ceil(checker.grid_cap_m(resolution) / resolution)) + 1)
 
 
 class WorldModel:
@@ -222,19 +221,12 @@ class WorldModel:
         if self._checker is None:
             safe = method_safe_voxels(self.occ, self.swept, self.assumed_free, self.config.obstacle_halo)
             unsafe = unsafe_mask(self.occ, safe_voxels=safe)
-            if self._field is None:
-                self._field = capped_field(self.spheres, self.config.validity, self.occ.resolution)
+            if self._base_checker is None:  # packs the robot's spheres once (~15 ms); sizes the field's cap
+                self._base_checker = ValidityChecker(self.spheres, config=self.config.validity)
+                self._field = capped_field(self._base_checker, self.occ.resolution)
             grid = DistanceGrid(self._field.update(unsafe), self.occ.grid_min, self.occ.resolution)
-            self._checker = self._checker_for(grid)
+            self._checker = self._base_checker.with_grid(grid)
         return self._checker
-
-    def _checker_for(self, grid: DistanceGrid) -> ValidityChecker:
-        """A checker on a new distance grid of the map's resolution; the first checker's
-        packed robot spheres are reused (`ValidityChecker.with_grid`)."""
-        if self._base_checker is None:
-            self._base_checker = ValidityChecker(self.spheres, grid=grid, config=self.config.validity)
-            return self._base_checker
-        return self._base_checker.with_grid(grid)
 
     @property
     def frontiers(self) -> tuple[FrontierCluster, ...]:

@@ -176,15 +176,19 @@ class ValidityChecker:
         self._bounds = motion_bounds(sphere_model, self._p.robot)
 
     def with_grid(self, grid: DistanceGrid) -> "ValidityChecker":
-        """This checker on another distance grid of the same resolution (a map update),
-        reusing the packed robot spheres (packing them costs ~15 ms)."""
-        if self.grid is None or not isinstance(grid, DistanceGrid) or grid.resolution != self.grid.resolution:
-            raise CompassInputError("with_grid needs a checker built with a grid and a DistanceGrid of the same "
-                                    "resolution; build a new ValidityChecker otherwise")
+        """This checker on another distance grid (a map update), reusing the packed robot
+        spheres (packing them costs ~15 ms): a checker built without a grid takes any grid,
+        one built with a grid only grids of its resolution."""
+        if not isinstance(grid, DistanceGrid) or (self.grid is not None and grid.resolution != self.grid.resolution):
+            raise CompassInputError("with_grid needs a DistanceGrid, of the checker's grid resolution if it has "
+                                    "one; build a new ValidityChecker otherwise")
         out = copy.copy(self)
         out.grid = grid
+        half_diag = 0.5 * math.sqrt(3.0) * grid.resolution if self.config.voxel_extent else 0.0
+        params = self._p.params.copy()
+        params[2] = half_diag
         out._p = replace(self._p, grid=GridData(grid.dist, grid.origin, grid.resolution, True,
-                                                self.config.outside_grid_free))
+                                                self.config.outside_grid_free), params=params)
         return out
 
     def grid_cap_m(self, resolution: float) -> float:
