@@ -5,6 +5,7 @@
 * grasp_map_no_near_body: GRASP and INSPECT on the 1 cm map of every depth frame
   (`GraspTrialConfig.grasp_map`), with no unknown space near the body taken as free
   (`near_body_free=False`).
+* find_only: no GRASP state (the trial ends at FOUND), as `compass run --find-only`.
 """
 from __future__ import annotations
 
@@ -19,3 +20,7 @@ def _run(spec, config: TrialConfig) -> tuple[dict, dict]:
 
 def grasp_map_no_near_body(spec) -> tuple[dict, dict]:
     return _run(spec, TrialConfig(grasp=GraspTrialConfig(grasp_map=True, near_body_free=False)))
+
+
+def find_only(spec) -> tuple[dict, dict]:
+    return _run(spec, TrialConfig(grasp=GraspTrialConfig(enabled=False)))

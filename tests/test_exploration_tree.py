@@ -187,3 +187,26 @@ def test_backtracking_replays_the_last_path_when_the_map_now_rejects_it(setup, m
     d = m.decide()
     assert d.stats["replay"] == 1 and (d.plans_attempted, d.plans_succeeded) == (1, 1)
     np.testing.assert_array_equal(d.path, first.path[::-1])
+
+
+def test_start_shell_claims_only_the_body_margin_inside_the_confined_space(setup):
+    """The shell around the start posture (start_free_margin) is safe outside the space's outer
+    box; inside it (the box grown by its wall and one voxel) only start_body_margin is, so a
+    face frame just in front of the fingers is never assumed free."""
+    from compass_manip.exploration.world_model import WorldModel, WorldModelConfig, mark_configs, space_box_mask
+
+    task, q0 = setup[0].task(), setup[2]
+    cfg = WorldModelConfig(start_free_margin=0.10, start_body_margin=0.05)
+    wm = WorldModel(q0, cfg, None, task)
+    box = space_box_mask(wm.occ, task, task.space.wall_thickness + wm.occ.resolution)
+    for margin in (0.05, 0.10):
+        m = np.zeros(wm.occ.shape, bool)
+        mark_configs(m, wm.occ, wm.spheres, q0[None], margin)
+        if margin == 0.05:
+            body = m
+        else:
+            shell = m
+    assert (shell & box & ~body).any()  # the home shell reaches into the box in this set-up
+    assert not (wm.swept & box & ~body).any()
+    assert wm.swept[shell & ~box].all() and wm.swept[body].all()
+    assert wm.checker.is_valid(q0)

@@ -51,7 +51,11 @@ class WorldModelConfig:
     margins and edge step; frontiers: clustering; start_free_margin [m]: inflation of the
     robot's spheres at the start configuration assumed free (the paper's premise that the
     initial posture is safe, extended to a shell around it so the wrist can start the
-    near-field scan; seen obstacles still count); assume_free_outside_space: unknown voxels
+    near-field scan; seen obstacles still count); inside the confined space's outer box
+    (grown by its wall and one voxel), whose boards and face frame the Task leaves unknown,
+    only start_body_margin [m] is (a finger touched an unseen face-frame rail 1.4 cm in
+    front of it with the full shell; 5 cm lets the start posture and its first moves be
+    valid on the 2 cm map); assume_free_outside_space: unknown voxels
     outside the confined space's outer box (its interior grown by the wall thickness plus
     space_margin [m], extended down to the floor) and more than floor_margin [m] above the
     floor count as free for motion, as the paper's planner treats all unknown space (inside
@@ -64,6 +68,7 @@ class WorldModelConfig:
     max_range: float = 1.5
     swept_margin: float = 0.05
     start_free_margin: float = 0.10
+    start_body_margin: float = 0.05
     assume_free_outside_space: bool = True
     space_margin: float = 0.06
     floor_margin: float = 0.05
@@ -135,14 +140,20 @@ def manhattan_dilate(mask, r):
 def outside_space_mask(occ: OccupancyMap, task, margin: float, floor_margin: float) -> np.ndarray:
     """(nx, ny, nz) bool: voxels outside the confined space's outer box grown by margin [m]
     (extended down to the floor) and higher than floor_margin [m] above the floor."""
+    inside = space_box_mask(occ, task, task.space.wall_thickness + margin, down_to_floor=True)
+    return ~inside & (occ.voxel_centers()[..., 2] > task.floor_z + floor_margin)
+
+
+def space_box_mask(occ: OccupancyMap, task, grow: float, down_to_floor: bool = False) -> np.ndarray:
+    """(nx, ny, nz) bool: voxels whose centres lie in the confined space's interior box
+    grown by grow [m] on every side (and, if down_to_floor, extended down to the floor)."""
     sp = task.space
-    grow = sp.wall_thickness + margin
     lo = np.asarray(sp.interior_min, float) - grow
     hi = np.asarray(sp.interior_max, float) + grow
-    lo[2] = task.floor_z - 1.0
+    if down_to_floor:
+        lo[2] = task.floor_z - 1.0
     c = occ.voxel_centers()
-    inside = np.all((c >= lo) & (c <= hi), axis=-1)
-    return ~inside & (c[..., 2] > task.floor_z + floor_margin)
+    return np.all((c >= lo) & (c <= hi), axis=-1)
 
 
 def mark_configs(mask: np.ndarray, occ: OccupancyMap, spheres, Q: np.ndarray, margin: float) -> None:
@@ -198,7 +209,21 @@ class WorldModel:
                 hi = base + np.asarray(self.config.near_base_box[1])
                 c = self.occ.voxel_centers()
                 self.assumed_free &= ~np.all((c >= lo) & (c <= hi), axis=-1)
-        self.add_swept(self.q[None], self.config.start_free_margin)
+        self._mark_start_shell(task)
+
+    def _mark_start_shell(self, task) -> None:
+        """The start posture's spheres are safe (the robot is there); the shell of
+        start_free_margin [m] around them is safe too, except inside the confined space's
+        outer box grown by its wall thickness and one voxel: its boards, face frame and
+        contents are what the Task leaves unknown, and a hand that starts near the opening
+        must see them before it moves there."""
+        body = np.zeros(self.occ.shape, bool)
+        mark_configs(body, self.occ, self.spheres, self.q[None], self.config.start_body_margin)
+        shell = np.zeros(self.occ.shape, bool)
+        mark_configs(shell, self.occ, self.spheres, self.q[None], self.config.start_free_margin)
+        if task is not None:
+            shell &= ~space_box_mask(self.occ, task, task.space.wall_thickness + self.occ.resolution)
+        self.swept |= body | shell
 
     def observe(self, obs: Observation) -> None:
         integrate_observation(self.occ, obs, self.spheres, self.config.max_range)
