@@ -2,7 +2,9 @@
 
 The arm follows the trajectory exactly (no dynamics); every `check_step` [rad] of joint
 motion the robot is tested against the scene with MuJoCo's collision detection, and camera
-frames are rendered at `frame_rate` [Hz] of simulated time, or, with a `KeyframeRule`, at
+frames are rendered at `frame_rate` [Hz] of simulated time (with `advance`, the samples that
+the clearance at a tested sample proves contact-free are not tested: `sim.advance`; the
+reported contacts are those of a test at every sample), or, with a `KeyframeRule`, at
 the contact-check samples where the camera has moved or turned enough since the last frame
 (`sim.keyframes`; the motion's start pose is the first reference, its last sample is left
 to the caller, which renders the end of every motion).
@@ -17,6 +19,7 @@ from ..errors import CompassInputError, real_number
 from ..robot.kinematics import MAX_FINGER_WIDTH
 from ..robot.model import check_q
 from ..types import Frame, Trajectory
+from .advance import AdvanceConfig, MotionBound, clearance_model
 from .keyframes import KeyframeRule, KeyframeTracker
 from .world import Contact, World
 
@@ -26,7 +29,9 @@ class ExecutorConfig:
     """frame_rate [Hz] of camera frames along the motion (0 = none); check_step [rad]
     largest joint step between two collision checks; stop_on_contact ends the motion at the
     first contact (the arm stays at the last contact-free state); keyframes: a
-    `KeyframeRule` that replaces frame_rate (None: frames at frame_rate)."""
+    `KeyframeRule` that replaces frame_rate (None: frames at frame_rate); advance: the
+    conservative advancement of the contact checks (`sim.advance`; None: a test at every
+    sample, the same contacts)."""
 
     frame_rate: float = 5.0
     check_step: float = 0.005
@@ -36,8 +41,12 @@ class ExecutorConfig:
     render_seg: bool = True
     raycast_depth: bool = False
     keyframes: KeyframeRule | None = None
+    advance: AdvanceConfig | None = AdvanceConfig()
 
     def __post_init__(self) -> None:
+        if self.advance is not None and not isinstance(self.advance, AdvanceConfig):
+            raise CompassInputError(f"ExecutorConfig.advance = {self.advance!r:.40} is not allowed; "
+                                    "use an AdvanceConfig or None")
         if self.keyframes is not None and not isinstance(self.keyframes, KeyframeRule):
             raise CompassInputError(f"ExecutorConfig.keyframes = {self.keyframes!r:.40} is not allowed; "
                                     "use a KeyframeRule or None")
@@ -135,8 +144,24 @@ def execute(world: World, traj: Trajectory, config: ExecutorConfig | None = None
     q_last_free = qs[0]
     t_last = traj.t[0]
     completed = True
-    for t, q in zip(ts, qs):
-        found = world.contacts(q, finger_width, include_self=config.include_self)
+    bound = None
+    if config.advance is not None and len(ts) > 2:
+        world.set_q(qs[0], finger_width)  # the fingers' state sets the geoms' motion rates
+        bound = MotionBound(clearance_model(world, config.include_self, config.advance), qs)
+    proven, next_try, backoff = -1, 0, 1  # samples <= proven are contact-free, proven untested
+    for k, (t, q) in enumerate(zip(ts, qs)):
+        if k <= proven:
+            found = []
+            if keyframes is not None:
+                world.set_q(q, finger_width)
+        else:
+            found = world.contacts(q, finger_width, include_self=config.include_self)
+            if not found and bound is not None and next_try <= k < len(ts) - 1:
+                proven = bound.proven_until(k)
+                if proven > k:
+                    backoff = 1
+                else:  # close to something: test the next samples one by one for a while
+                    next_try, backoff = k + backoff, min(2 * backoff, config.advance.backoff_max)
         if found:
             contacts.extend(TimedContact(float(t - traj.t[0] + t0), q.copy(), c) for c in found)
             if config.stop_on_contact:
