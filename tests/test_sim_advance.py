@@ -12,8 +12,8 @@ from compass_manip.sim.executor import ExecutorConfig, execute, interpolate, sam
 from compass_manip.sim.world import World
 from compass_manip.types import Trajectory
 
-EXACT = ExecutorConfig(frame_rate=0.0, advance=None)
-FAST = ExecutorConfig(frame_rate=0.0)
+EXACT = ExecutorConfig(frame_rate=0.0)
+FAST = ExecutorConfig(frame_rate=0.0, advance=AdvanceConfig())
 
 
 @pytest.fixture(scope="module")

@@ -85,6 +85,7 @@ class ClearanceModel:
                     if int(g1) in index or int(g2) in index:  # a pair of two fixed geoms never changes
                         self_pairs.append((int(g1), int(g2)))
         self.self_pairs = np.array(self_pairs, dtype=np.int64).reshape(-1, 2)
+        self.planes = np.flatnonzero(m.geom_type[self.scene_pairs[:, 1]] == mujoco.mjtGeom.mjGEOM_PLANE)
         row = {int(g): i for i, g in enumerate(self.robot)}
         # rows of a pair's geoms in the rate matrix (-1: a fixed geom, rate 0)
         self.self_rows = np.array([[row.get(int(g), -1) for g in p] for p in self.self_pairs],
@@ -130,60 +131,97 @@ class ClearanceModel:
         h[m.geom_type[o] == mujoco.mjtGeom.mjGEOM_PLANE] = np.inf
         return (c - h)[inverse], (c + h)[inverse]
 
-    def clearances(self, boxes: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
-        """(per robot geom: its least distance [m] to the scene, per self pair: its
-        distance [m]) at the current state, each capped at cap_m; boxes: `scene_boxes()`.
-        Exact distances (`mj_geomDistance`) where a bounding-volume bound (a robot geom's
-        bounding sphere against a scene geom's box, or two spheres) does not already reach
-        the least one."""
-        m, d, cap = self.world.model, self.world.data, self.config.cap_m
+    def lower_bounds(self, boxes: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+        """Lower bounds [m] on the distance of each scene pair (a robot geom's bounding sphere
+        against the scene geom's box, or its height above a plane) and of each self pair (two
+        bounding spheres) at the current state; boxes: `scene_boxes()`."""
+        m, d = self.world.model, self.world.data
         lo, hi = boxes
         rows = self.scene_pairs[:, 0]
         c, rb = d.geom_xpos[self.robot], m.geom_rbound[self.robot]
         gap = np.maximum(np.maximum(lo - c[rows], c[rows] - hi), 0.0)
         gap[~np.isfinite(gap)] = 0.0
-        lower = np.linalg.norm(gap, axis=1) - rb[rows]  # a lower bound on each pair's distance
-        order = np.lexsort((lower, rows))  # by robot geom, then by bound
-        starts = np.searchsorted(rows[order], np.arange(len(self.robot) + 1))
-        geom = np.full(len(self.robot), cap)
-        for i in range(len(self.robot)):
-            g, best = int(self.robot[i]), cap
-            for p in order[starts[i]:starts[i + 1]]:
-                if lower[p] >= best:
-                    break
-                best = min(best, mujoco.mj_geomDistance(m, d, g, int(self.scene_pairs[p, 1]), best, self._fromto))
-            geom[i] = best
+        lower = np.linalg.norm(gap, axis=1) - rb[rows]
+        if len(self.planes):
+            p, o = self.planes, self.scene_pairs[self.planes, 1]
+            normal = d.geom_xmat[o].reshape(-1, 3, 3)[:, :, 2]
+            lower[p] = np.einsum("ni,ni->n", c[rows[p]] - d.geom_xpos[o], normal) - rb[rows[p]]
         g1, g2 = self.self_pairs[:, 0], self.self_pairs[:, 1]
-        pairs = np.minimum(np.linalg.norm(d.geom_xpos[g1] - d.geom_xpos[g2], axis=1)
-                           - m.geom_rbound[g1] - m.geom_rbound[g2], cap)
-        for p in np.flatnonzero(pairs < cap):
-            pairs[p] = mujoco.mj_geomDistance(m, d, int(g1[p]), int(g2[p]), cap, self._fromto)
+        pairs = np.linalg.norm(d.geom_xpos[g1] - d.geom_xpos[g2], axis=1) - m.geom_rbound[g1] - m.geom_rbound[g2]
+        return lower, pairs
+
+    def geom_distance(self, i: int, lower: np.ndarray) -> float:
+        """Least distance [m] of robot geom `i` (index into `robot`) to the scene, capped at
+        cap_m: exact (`mj_geomDistance`) for its pairs in the order of their lower bounds
+        until the next bound reaches the least distance so far."""
+        m, d, best = self.world.model, self.world.data, self.config.cap_m
+        mine = np.flatnonzero(self.scene_pairs[:, 0] == i)
+        g = int(self.robot[i])
+        for p in mine[np.argsort(lower[mine], kind="stable")]:
+            if lower[p] >= best:
+                break
+            best = min(best, mujoco.mj_geomDistance(m, d, g, int(self.scene_pairs[p, 1]), best, self._fromto))
+        return best
+
+    def pair_distance(self, p: int) -> float:
+        """Distance [m] of self pair `p`, capped at cap_m."""
+        g1, g2 = self.self_pairs[p]
+        return mujoco.mj_geomDistance(self.world.model, self.world.data, int(g1), int(g2), self.config.cap_m,
+                                      self._fromto)
+
+    def clearances(self, boxes: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+        """(per robot geom: its least distance [m] to the scene, per self pair: its
+        distance [m]) at the current state, each capped at cap_m, all exact."""
+        lower, _ = self.lower_bounds(boxes)
+        geom = np.array([self.geom_distance(i, lower) for i in range(len(self.robot))])
+        pairs = np.array([self.pair_distance(p) for p in range(len(self.self_pairs))])
         return geom, pairs
 
 
 class MotionBound:
     """The executor's samples qs (n, 7) [rad] of one motion: `proven_until(k)` is the last
-    sample index that the clearances at sample k prove contact-free (k itself when none)."""
+    sample index that the clearances at sample k prove contact-free (k itself when none).
+
+    Each robot geom and self pair is a column: its motion bound accumulated along the
+    samples (non-decreasing) against its clearance at k. The clearances start as the
+    bounding-volume lower bounds (valid, cheap); the column that ends the proof first is
+    made exact (`mj_geomDistance`) until that column is exact: the exact distances are
+    computed only where they decide the result. An exact distance found at an earlier
+    sample of the motion, less the column's bound since, is a lower bound too."""
 
     def __init__(self, model: ClearanceModel, qs: np.ndarray):
         self.model = model
         steps = np.abs(np.diff(np.asarray(qs, float), axis=0))  # (n-1, 7) [rad]
         rates = model.geom_rates()
-        self.cum = np.vstack([np.zeros((1, len(rates))), np.cumsum(steps @ rates.T, axis=0)])  # (n, n_robot) [m]
+        cum = np.vstack([np.zeros((1, len(rates))), np.cumsum(steps @ rates.T, axis=0)])  # (n, n_robot) [m]
+        padded = np.hstack([cum, np.zeros((len(cum), 1))])  # row -1: a fixed geom
+        rows = model.self_rows
+        self.cum = np.hstack([cum, padded[:, rows[:, 0]] + padded[:, rows[:, 1]]])  # (n, n_robot + n_pairs)
         self.boxes = model.scene_boxes()
+        # an exact distance d found at sample a bounds the column at k >= a by d - (cum[k] - cum[a]):
+        # kept as d + cum[a] (-inf: none yet)
+        self.base = np.full(self.cum.shape[1], -np.inf)
+        self.n_exact = 0  # exact distances computed (for the tests and figures)
 
     def proven_until(self, k: int) -> int:
-        geom, pairs = self.model.clearances(self.boxes)
-        slack = self.model.config.slack_m
-        moved = self.cum[k:] - self.cum[k]  # (n-k, n_robot)
-        ok = np.all(moved < geom - slack, axis=1)
-        rows = self.model.self_rows
-        if len(rows):
-            padded = np.hstack([moved, np.zeros((len(moved), 1))])  # row -1: a fixed geom
-            ok &= np.all(padded[:, rows[:, 0]] + padded[:, rows[:, 1]] < pairs - slack, axis=1)
-        bad = np.flatnonzero(~ok)
-        last = (len(ok) if len(bad) == 0 else int(bad[0])) - 1
-        return k + max(last, 0)
+        model, cum = self.model, self.cum
+        n_robot, cap, slack = len(model.robot), model.config.cap_m, model.config.slack_m
+        lower, pairs = model.lower_bounds(self.boxes)
+        geom = np.full(n_robot, cap)
+        np.minimum.at(geom, model.scene_pairs[:, 0], lower)
+        clear = np.minimum(np.maximum(np.concatenate([geom, pairs]), self.base - cum[k]), cap)
+        exact = np.zeros(len(clear), dtype=bool)
+        end = len(cum)
+        while True:
+            window = cum[k:end] - cum[k] >= clear - slack  # (rows, columns): not proven
+            first = np.where(window.any(axis=0), np.argmax(window, axis=0), end - k)
+            col = int(np.argmin(first))
+            if exact[col] or first[col] == end - k:
+                return k + max(int(first[col]) - 1, 0)
+            clear[col] = model.geom_distance(col, lower) if col < n_robot else model.pair_distance(col - n_robot)
+            exact[col] = True
+            self.base[col] = clear[col] + cum[k, col]
+            self.n_exact += 1
 
 
 _MODELS: dict = {}

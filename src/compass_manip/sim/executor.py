@@ -17,7 +17,7 @@ import numpy as np
 
 from ..errors import CompassInputError, real_number
 from ..robot.kinematics import MAX_FINGER_WIDTH
-from ..robot.model import check_q
+from ..robot.model import Q_MAX, Q_MIN, check_q
 from ..types import Frame, Trajectory
 from .advance import AdvanceConfig, MotionBound, clearance_model
 from .keyframes import KeyframeRule, KeyframeTracker
@@ -41,7 +41,7 @@ class ExecutorConfig:
     render_seg: bool = True
     raycast_depth: bool = False
     keyframes: KeyframeRule | None = None
-    advance: AdvanceConfig | None = AdvanceConfig()
+    advance: AdvanceConfig | None = None
 
     def __post_init__(self) -> None:
         if self.advance is not None and not isinstance(self.advance, AdvanceConfig):
@@ -94,18 +94,26 @@ def check_trajectory(traj: Trajectory) -> Trajectory:
         raise CompassInputError(f"trajectory needs t (n,) and q (n, 7) with n >= 1, got {t.shape} and {q.shape}")
     if not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
         raise CompassInputError("trajectory times must be finite and strictly increasing")
-    for i, qi in enumerate(q):
-        check_q(qi, name=f"trajectory q[{i}]")
+    ok = np.all((q >= Q_MIN - 1e-9) & (q <= Q_MAX + 1e-9), axis=1)  # NaN fails too
+    for i in np.flatnonzero(~ok)[:1]:
+        check_q(q[i], name=f"trajectory q[{i}]")  # raises, naming the first bad sample
     return Trajectory(t=t, q=q)
 
 
 def sample_times(traj: Trajectory, check_step: float) -> np.ndarray:
-    """Times [s] at which the trajectory moves at most `check_step` [rad] per joint between samples."""
-    ts = [traj.t[:1]]
-    for i in range(len(traj.t) - 1):
-        n = max(1, int(np.ceil(np.max(np.abs(traj.q[i + 1] - traj.q[i])) / check_step)))
-        ts.append(np.linspace(traj.t[i], traj.t[i + 1], n + 1)[1:])
-    return np.concatenate(ts)
+    """Times [s] at which the trajectory moves at most `check_step` [rad] per joint between
+    samples: each segment's `np.linspace(t_i, t_i+1, n + 1)[1:]` (the same numbers), for all
+    segments at once."""
+    t = np.asarray(traj.t, dtype=float)
+    if len(t) < 2:
+        return t[:1].copy()
+    n = np.maximum(1, np.ceil(np.max(np.abs(np.diff(traj.q, axis=0)), axis=1) / check_step).astype(np.int64))
+    seg = np.repeat(np.arange(len(n)), n)
+    k = (np.arange(len(seg)) - np.repeat(np.cumsum(n) - n, n) + 1).astype(float)
+    step = (t[1:] - t[:-1]) / n  # linspace: k * (delta / div) + start, the end point exact
+    out = k * step[seg] + t[:-1][seg]
+    out[np.cumsum(n) - 1] = t[1:]
+    return np.concatenate([t[:1], out])
 
 
 def interpolate(traj: Trajectory, t: np.ndarray) -> np.ndarray:

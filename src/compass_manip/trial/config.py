@@ -51,7 +51,7 @@ class SensingConfig:
     frame_rate: float = 3.0
     check_step: float = 0.005
     keyframes: KeyframeRule | None = None
-    advance: AdvanceConfig | None = AdvanceConfig()
+    advance: AdvanceConfig | None = None
 
     def __post_init__(self) -> None:
         if self.advance is not None and not isinstance(self.advance, AdvanceConfig):
