@@ -161,3 +161,23 @@ def test_bad_advance_configs_are_rejected():
         AdvanceConfig(backoff_max=0)
     with pytest.raises(CompassInputError, match="advance"):
         ExecutorConfig(advance=0.1)
+
+
+def _sample_times_reference(traj, check_step):
+    """The executor's sampling as it was written first: one np.linspace per segment."""
+    ts = [traj.t[:1]]
+    for i in range(len(traj.t) - 1):
+        n = max(1, int(np.ceil(np.max(np.abs(traj.q[i + 1] - traj.q[i])) / check_step)))
+        ts.append(np.linspace(traj.t[i], traj.t[i + 1], n + 1)[1:])
+    return np.concatenate(ts)
+
+
+def test_vectorised_sample_times_equal_linspace_per_segment():
+    rng = np.random.default_rng(5)
+    for _ in range(200):
+        m = int(rng.integers(1, 30))
+        t = np.cumsum(rng.uniform(1e-4, 0.5, m)) + rng.uniform(-5.0, 100.0)
+        q = np.cumsum(rng.normal(0.0, rng.choice([1e-4, 0.01, 0.1]), (m, 7)), axis=0)
+        traj = Trajectory(t, q)
+        step = float(rng.choice([0.001, 0.005, 0.05]))
+        assert np.array_equal(sample_times(traj, step), _sample_times_reference(traj, step))
