@@ -47,8 +47,8 @@ def render_rgbd(renderer: mujoco.Renderer) -> tuple[np.ndarray, np.ndarray]:
 
 
 _G = mujoco.mjtGeom
-_CULLABLE = frozenset(int(t) for t in (_G.mjGEOM_MESH, _G.mjGEOM_BOX, _G.mjGEOM_SPHERE, _G.mjGEOM_CAPSULE,
-                                       _G.mjGEOM_CYLINDER, _G.mjGEOM_ELLIPSOID))
+_CULLABLE_IDS = np.array([int(t) for t in (_G.mjGEOM_MESH, _G.mjGEOM_BOX, _G.mjGEOM_SPHERE, _G.mjGEOM_CAPSULE,
+                                           _G.mjGEOM_CYLINDER, _G.mjGEOM_ELLIPSOID)], dtype=np.int64)
 
 
 def view_planes(K: np.ndarray, width: int, height: int, pad_px: float = 2.0) -> np.ndarray:
@@ -69,16 +69,19 @@ def cull_outside_view(scene: mujoco.MjvScene, T_world_cam: np.ndarray, planes: n
     before the near clip plane near_m [m]); returns how many. With shadows and reflections
     off a geom outside the view adds no pixel, so the images do not change; the Panda's
     visual meshes (about 135,000 triangles), mostly behind the wrist camera, are most of
-    the GL work of a frame. Planes and other unbounded geoms are kept."""
+    the GL work of a frame. Planes and other unbounded geoms are kept. (All geoms are tested
+    as arrays: a geom on the boundary, which has no pixel either way, may fall on either
+    side of it by rounding.)"""
     R, t = np.asarray(T_world_cam)[:3, :3], np.asarray(T_world_cam)[:3, 3]
-    n = 0
-    for i in range(scene.ngeom):
-        g = scene.geoms[i]
-        if int(g.type) not in _CULLABLE or not g.modelrbound > 0:
-            continue
-        p = (np.asarray(g.pos) - t) @ R
-        r = g.modelrbound + margin_m
-        if p[2] + r < near_m or np.any(planes @ p < -r):
-            g.type = mujoco.mjtGeom.mjGEOM_NONE
-            n += 1
-    return n
+    geoms = [scene.geoms[i] for i in range(scene.ngeom)]
+    if not geoms:
+        return 0
+    kind = np.fromiter((int(g.type) for g in geoms), dtype=np.int64, count=len(geoms))
+    rbound = np.fromiter((g.modelrbound for g in geoms), dtype=np.float64, count=len(geoms))
+    p = (np.array([g.pos for g in geoms], dtype=np.float64) - t) @ R  # centres in the optical frame
+    r = rbound + margin_m
+    out = np.isin(kind, _CULLABLE_IDS) & (rbound > 0) & ((p[:, 2] + r < near_m) | np.any(p @ planes.T < -r[:, None],
+                                                                                         axis=1))
+    for i in np.flatnonzero(out):
+        geoms[i].type = mujoco.mjtGeom.mjGEOM_NONE
+    return int(np.count_nonzero(out))
