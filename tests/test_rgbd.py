@@ -111,3 +111,29 @@ def test_array_culling_drops_the_geoms_the_per_geom_test_drops(world):
             assert n == len(expected) and dropped == expected
     finally:
         world.cull_outside_view = True
+
+
+def test_box_culling_drops_the_camera_links_and_keeps_the_images(world):
+    """Near the home posture the boxes leave out the hand, whose sphere reaches into the
+    view, and every image stays the same (poses with the arm in view: the test above)."""
+    import mujoco
+
+    m = world.model
+    rng = np.random.default_rng(9)
+    lo, hi = m.jnt_range[:7, 0] + 0.01, m.jnt_range[:7, 1] - 0.01
+    try:
+        for i in range(12):
+            q = np.clip(Q_HOME + rng.normal(0.0, 0.3, 7), lo, hi)
+            world.cull_outside_view = True
+            culled = world.render(q, rgb=True, seg=True)
+            scene = world._update_scene().scene
+            kept = {int(scene.geoms[j].objid) for j in range(scene.ngeom)
+                    if scene.geoms[j].type != mujoco.mjtGeom.mjGEOM_NONE}
+            assert m.geom("hand/hand").id not in kept, i
+            world.cull_outside_view = False
+            full = world.render(q, rgb=True, seg=True)
+            assert np.array_equal(culled.rgb, full.rgb), i
+            assert np.array_equal(culled.depth, full.depth), i
+            assert np.array_equal(culled.seg, full.seg), i
+    finally:
+        world.cull_outside_view = True

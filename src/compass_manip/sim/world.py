@@ -196,7 +196,7 @@ class World:
         r.scene.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = False
         if self.cull_outside_view:  # geoms wholly outside the wrist camera's view: no pixel
             cull_outside_view(r.scene, self.T_world_cam(), self._view_planes,
-                              self.model.vis.map.znear * self.model.stat.extent)
+                              self.model.vis.map.znear * self.model.stat.extent, geom_aabb=self.model.geom_aabb)
         return r
 
     def render_depth(self) -> np.ndarray:
