@@ -181,3 +181,28 @@ def test_vectorised_sample_times_equal_linspace_per_segment():
         traj = Trajectory(t, q)
         step = float(rng.choice([0.001, 0.005, 0.05]))
         assert np.array_equal(sample_times(traj, step), _sample_times_reference(traj, step))
+
+
+def test_robot_pairs_only_gives_every_contact_in_order(world):
+    """`World.contacts` with MuJoCo testing only the robot's pairs equals the test of every
+    pair (the same contacts in the same order), and leaves the model's types as they were."""
+    rng = np.random.default_rng(12)
+    m = world.model
+    lo, hi = m.jnt_range[:7, 0] + 0.01, m.jnt_range[:7, 1] - 0.01
+    types = m.geom_contype.copy()
+    hits = 0
+    try:
+        for _ in range(150):
+            q = np.clip(Q_HOME + rng.normal(0.0, 0.8, 7), lo, hi)
+            fw = float(rng.uniform(0.0, 0.08))
+            for include_self in (True, False):
+                world.robot_pairs_only = False
+                full = world.contacts(q, fw, include_self=include_self)
+                world.robot_pairs_only = True
+                fast = world.contacts(q, fw, include_self=include_self)
+                assert fast == full
+                hits += bool(full)
+            assert np.array_equal(m.geom_contype, types)
+    finally:
+        world.robot_pairs_only = True
+    assert 20 < hits < 280  # both contact and free states were compared
