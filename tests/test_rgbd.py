@@ -71,3 +71,69 @@ def test_view_planes_bound_the_image():
         assert np.all(planes @ p >= -1e-12)
     outside = np.array([(330.0 - 159.5) / 300.0, 0.0, 1.0])  # 10 px beyond the right edge
     assert np.any(planes @ outside < 0)
+
+
+def _cull_reference(scene, T_world_cam, planes, near_m, margin_m=0.01):
+    """The culling test one geom at a time (as first written): indices it drops."""
+    import mujoco
+
+    cullable = {int(t) for t in (mujoco.mjtGeom.mjGEOM_MESH, mujoco.mjtGeom.mjGEOM_BOX, mujoco.mjtGeom.mjGEOM_SPHERE,
+                                 mujoco.mjtGeom.mjGEOM_CAPSULE, mujoco.mjtGeom.mjGEOM_CYLINDER,
+                                 mujoco.mjtGeom.mjGEOM_ELLIPSOID)}
+    R, t = T_world_cam[:3, :3], T_world_cam[:3, 3]
+    out = []
+    for i in range(scene.ngeom):
+        g = scene.geoms[i]
+        if int(g.type) not in cullable or not g.modelrbound > 0:
+            continue
+        p = (np.asarray(g.pos) - t) @ R
+        r = g.modelrbound + margin_m
+        if p[2] + r < near_m or np.any(planes @ p < -r):
+            out.append(i)
+    return out
+
+
+def test_array_culling_drops_the_geoms_the_per_geom_test_drops(world):
+    import mujoco
+
+    rng = np.random.default_rng(8)
+    lo, hi = world.model.jnt_range[:7, 0], world.model.jnt_range[:7, 1]
+    near = world.model.vis.map.znear * world.model.stat.extent
+    try:
+        world.cull_outside_view = False
+        for _ in range(20):
+            world.set_q(rng.uniform(lo, hi))
+            scene = world._update_scene().scene
+            T = world.T_world_cam()
+            expected = _cull_reference(scene, T, world._view_planes, near)
+            n = cull_outside_view(scene, T, world._view_planes, near)
+            dropped = [i for i in range(scene.ngeom) if scene.geoms[i].type == mujoco.mjtGeom.mjGEOM_NONE]
+            assert n == len(expected) and dropped == expected
+    finally:
+        world.cull_outside_view = True
+
+
+def test_box_culling_drops_the_camera_links_and_keeps_the_images(world):
+    """Near the home posture the boxes leave out the hand, whose sphere reaches into the
+    view, and every image stays the same (poses with the arm in view: the test above)."""
+    import mujoco
+
+    m = world.model
+    rng = np.random.default_rng(9)
+    lo, hi = m.jnt_range[:7, 0] + 0.01, m.jnt_range[:7, 1] - 0.01
+    try:
+        for i in range(12):
+            q = np.clip(Q_HOME + rng.normal(0.0, 0.3, 7), lo, hi)
+            world.cull_outside_view = True
+            culled = world.render(q, rgb=True, seg=True)
+            scene = world._update_scene().scene
+            kept = {int(scene.geoms[j].objid) for j in range(scene.ngeom)
+                    if scene.geoms[j].type != mujoco.mjtGeom.mjGEOM_NONE}
+            assert m.geom("hand/hand").id not in kept, i
+            world.cull_outside_view = False
+            full = world.render(q, rgb=True, seg=True)
+            assert np.array_equal(culled.rgb, full.rgb), i
+            assert np.array_equal(culled.depth, full.depth), i
+            assert np.array_equal(culled.seg, full.seg), i
+    finally:
+        world.cull_outside_view = True

@@ -31,11 +31,17 @@ def is_rigid(T: np.ndarray, tol: float = 1e-6) -> bool:
     if T.shape != (4, 4) or not np.all(np.isfinite(T)):
         return False
     R = T[:3, :3]
-    return (
-        np.allclose(R.T @ R, np.eye(3), atol=tol)
+    # np.allclose(a, b, atol=tol) written out (|a - b| <= tol + 1e-5 |b|): the same test, without
+    # its per-call overhead (this runs for every IK target)
+    return bool(
+        np.all(np.abs(R.T @ R - _EYE3) <= tol + 1e-5 * _EYE3)
         and abs(np.linalg.det(R) - 1.0) < tol
-        and np.allclose(T[3], [0, 0, 0, 1], atol=tol)
+        and np.all(np.abs(T[3] - _ROW3) <= tol + 1e-5 * _ROW3)
     )
+
+
+_EYE3 = np.eye(3)
+_ROW3 = np.array([0.0, 0.0, 0.0, 1.0])
 
 
 def check_rigid(T: np.ndarray, name: str = "T") -> np.ndarray:

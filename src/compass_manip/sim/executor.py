@@ -2,7 +2,9 @@
 
 The arm follows the trajectory exactly (no dynamics); every `check_step` [rad] of joint
 motion the robot is tested against the scene with MuJoCo's collision detection, and camera
-frames are rendered at `frame_rate` [Hz] of simulated time, or, with a `KeyframeRule`, at
+frames are rendered at `frame_rate` [Hz] of simulated time (with `advance`, the samples that
+the clearance at a tested sample proves contact-free are not tested: `sim.advance`; the
+reported contacts are those of a test at every sample), or, with a `KeyframeRule`, at
 the contact-check samples where the camera has moved or turned enough since the last frame
 (`sim.keyframes`; the motion's start pose is the first reference, its last sample is left
 to the caller, which renders the end of every motion).
@@ -15,8 +17,9 @@ import numpy as np
 
 from ..errors import CompassInputError, real_number
 from ..robot.kinematics import MAX_FINGER_WIDTH
-from ..robot.model import check_q
+from ..robot.model import Q_MAX, Q_MIN, check_q
 from ..types import Frame, Trajectory
+from .advance import AdvanceConfig, MotionBound, clearance_model
 from .keyframes import KeyframeRule, KeyframeTracker
 from .world import Contact, World
 
@@ -26,7 +29,9 @@ class ExecutorConfig:
     """frame_rate [Hz] of camera frames along the motion (0 = none); check_step [rad]
     largest joint step between two collision checks; stop_on_contact ends the motion at the
     first contact (the arm stays at the last contact-free state); keyframes: a
-    `KeyframeRule` that replaces frame_rate (None: frames at frame_rate)."""
+    `KeyframeRule` that replaces frame_rate (None: frames at frame_rate); advance: the
+    conservative advancement of the contact checks (`sim.advance`; None: a test at every
+    sample, the same contacts)."""
 
     frame_rate: float = 5.0
     check_step: float = 0.005
@@ -36,8 +41,12 @@ class ExecutorConfig:
     render_seg: bool = True
     raycast_depth: bool = False
     keyframes: KeyframeRule | None = None
+    advance: AdvanceConfig | None = None
 
     def __post_init__(self) -> None:
+        if self.advance is not None and not isinstance(self.advance, AdvanceConfig):
+            raise CompassInputError(f"ExecutorConfig.advance = {self.advance!r:.40} is not allowed; "
+                                    "use an AdvanceConfig or None")
         if self.keyframes is not None and not isinstance(self.keyframes, KeyframeRule):
             raise CompassInputError(f"ExecutorConfig.keyframes = {self.keyframes!r:.40} is not allowed; "
                                     "use a KeyframeRule or None")
@@ -85,18 +94,26 @@ def check_trajectory(traj: Trajectory) -> Trajectory:
         raise CompassInputError(f"trajectory needs t (n,) and q (n, 7) with n >= 1, got {t.shape} and {q.shape}")
     if not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
         raise CompassInputError("trajectory times must be finite and strictly increasing")
-    for i, qi in enumerate(q):
-        check_q(qi, name=f"trajectory q[{i}]")
+    ok = np.all((q >= Q_MIN - 1e-9) & (q <= Q_MAX + 1e-9), axis=1)  # NaN fails too
+    for i in np.flatnonzero(~ok)[:1]:
+        check_q(q[i], name=f"trajectory q[{i}]")  # raises, naming the first bad sample
     return Trajectory(t=t, q=q)
 
 
 def sample_times(traj: Trajectory, check_step: float) -> np.ndarray:
-    """Times [s] at which the trajectory moves at most `check_step` [rad] per joint between samples."""
-    ts = [traj.t[:1]]
-    for i in range(len(traj.t) - 1):
-        n = max(1, int(np.ceil(np.max(np.abs(traj.q[i + 1] - traj.q[i])) / check_step)))
-        ts.append(np.linspace(traj.t[i], traj.t[i + 1], n + 1)[1:])
-    return np.concatenate(ts)
+    """Times [s] at which the trajectory moves at most `check_step` [rad] per joint between
+    samples: each segment's `np.linspace(t_i, t_i+1, n + 1)[1:]` (the same numbers), for all
+    segments at once."""
+    t = np.asarray(traj.t, dtype=float)
+    if len(t) < 2:
+        return t[:1].copy()
+    n = np.maximum(1, np.ceil(np.max(np.abs(np.diff(traj.q, axis=0)), axis=1) / check_step).astype(np.int64))
+    seg = np.repeat(np.arange(len(n)), n)
+    k = (np.arange(len(seg)) - np.repeat(np.cumsum(n) - n, n) + 1).astype(float)
+    step = (t[1:] - t[:-1]) / n  # linspace: k * (delta / div) + start, the end point exact
+    out = k * step[seg] + t[:-1][seg]
+    out[np.cumsum(n) - 1] = t[1:]
+    return np.concatenate([t[:1], out])
 
 
 def interpolate(traj: Trajectory, t: np.ndarray) -> np.ndarray:
@@ -135,8 +152,24 @@ def execute(world: World, traj: Trajectory, config: ExecutorConfig | None = None
     q_last_free = qs[0]
     t_last = traj.t[0]
     completed = True
-    for t, q in zip(ts, qs):
-        found = world.contacts(q, finger_width, include_self=config.include_self)
+    bound = None
+    if config.advance is not None and len(ts) > 2:
+        world.set_q(qs[0], finger_width)  # the fingers' state sets the geoms' motion rates
+        bound = MotionBound(clearance_model(world, config.include_self, config.advance), qs)
+    proven, next_try, backoff = -1, 0, 1  # samples <= proven are contact-free, proven untested
+    for k, (t, q) in enumerate(zip(ts, qs)):
+        if k <= proven:
+            found = []
+            if keyframes is not None:
+                world.set_q(q, finger_width)
+        else:
+            found = world.contacts(q, finger_width, include_self=config.include_self)
+            if not found and bound is not None and next_try <= k < len(ts) - 1:
+                proven = bound.proven_until(k)
+                if proven > k:
+                    backoff = 1
+                else:  # close to something: test the next samples one by one for a while
+                    next_try, backoff = k + backoff, min(2 * backoff, config.advance.backoff_max)
         if found:
             contacts.extend(TimedContact(float(t - traj.t[0] + t0), q.copy(), c) for c in found)
             if config.stop_on_contact:

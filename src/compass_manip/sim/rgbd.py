@@ -47,8 +47,8 @@ def render_rgbd(renderer: mujoco.Renderer) -> tuple[np.ndarray, np.ndarray]:
 
 
 _G = mujoco.mjtGeom
-_CULLABLE = frozenset(int(t) for t in (_G.mjGEOM_MESH, _G.mjGEOM_BOX, _G.mjGEOM_SPHERE, _G.mjGEOM_CAPSULE,
-                                       _G.mjGEOM_CYLINDER, _G.mjGEOM_ELLIPSOID))
+_CULLABLE_IDS = np.array([int(t) for t in (_G.mjGEOM_MESH, _G.mjGEOM_BOX, _G.mjGEOM_SPHERE, _G.mjGEOM_CAPSULE,
+                                           _G.mjGEOM_CYLINDER, _G.mjGEOM_ELLIPSOID)], dtype=np.int64)
 
 
 def view_planes(K: np.ndarray, width: int, height: int, pad_px: float = 2.0) -> np.ndarray:
@@ -63,22 +63,46 @@ def view_planes(K: np.ndarray, width: int, height: int, pad_px: float = 2.0) -> 
 
 
 def cull_outside_view(scene: mujoco.MjvScene, T_world_cam: np.ndarray, planes: np.ndarray, near_m: float,
-                      margin_m: float = 0.01) -> int:
+                      margin_m: float = 0.01, geom_aabb: np.ndarray | None = None) -> int:
     """Drop from `scene` (after `update_scene`) every geom whose bounding sphere, grown by
     margin_m [m], lies wholly outside the view (beyond one side plane, `view_planes`, or
     before the near clip plane near_m [m]); returns how many. With shadows and reflections
     off a geom outside the view adds no pixel, so the images do not change; the Panda's
     visual meshes (about 135,000 triangles), mostly behind the wrist camera, are most of
-    the GL work of a frame. Planes and other unbounded geoms are kept."""
+    the GL work of a frame. Planes and other unbounded geoms are kept. (All geoms are tested
+    as arrays: a geom on the boundary, which has no pixel either way, may fall on either
+    side of it by rounding.) geom_aabb: the model's `geom_aabb` (ngeom, 6) (centre and half
+    sizes in each geom's frame): a model geom whose sphere reaches into the view is also
+    dropped when its box, grown by margin_m, lies wholly outside (all eight corners beyond
+    one plane): the wrist camera's own link 7 and hand (19,000 triangles) are next to it,
+    their spheres reach into the view, their boxes mostly do not."""
     R, t = np.asarray(T_world_cam)[:3, :3], np.asarray(T_world_cam)[:3, 3]
-    n = 0
-    for i in range(scene.ngeom):
-        g = scene.geoms[i]
-        if int(g.type) not in _CULLABLE or not g.modelrbound > 0:
-            continue
-        p = (np.asarray(g.pos) - t) @ R
-        r = g.modelrbound + margin_m
-        if p[2] + r < near_m or np.any(planes @ p < -r):
-            g.type = mujoco.mjtGeom.mjGEOM_NONE
-            n += 1
-    return n
+    geoms = [scene.geoms[i] for i in range(scene.ngeom)]
+    if not geoms:
+        return 0
+    kind = np.fromiter((int(g.type) for g in geoms), dtype=np.int64, count=len(geoms))
+    rbound = np.fromiter((g.modelrbound for g in geoms), dtype=np.float64, count=len(geoms))
+    p = (np.array([g.pos for g in geoms], dtype=np.float64) - t) @ R  # centres in the optical frame
+    r = rbound + margin_m
+    out = np.isin(kind, _CULLABLE_IDS) & (rbound > 0) & ((p[:, 2] + r < near_m) | np.any(p @ planes.T < -r[:, None],
+                                                                                         axis=1))
+    if geom_aabb is not None:
+        cand = np.flatnonzero(np.isin(kind, _CULLABLE_IDS) & ~out)
+        objtype = np.fromiter((geoms[i].objtype for i in cand), dtype=np.int64, count=len(cand))
+        objid = np.fromiter((geoms[i].objid for i in cand), dtype=np.int64, count=len(cand))
+        keep = (objtype == int(mujoco.mjtObj.mjOBJ_GEOM)) & (objid >= 0)
+        cand, objid = cand[keep], objid[keep]
+        if len(cand):
+            mats = np.array([geoms[i].mat for i in cand], dtype=np.float64).reshape(-1, 3, 3)
+            box = np.asarray(geom_aabb, dtype=np.float64)[objid]
+            local = box[:, None, :3] + box[:, None, 3:] * _CORNER_SIGNS[None]  # (k, 8, 3) in each geom's frame
+            corners = p[cand][:, None, :] + np.einsum("ij,kjl,knl->kni", R.T, mats, local)  # optical frame
+            beyond_side = np.any(np.all(corners @ planes.T < -margin_m, axis=1), axis=1)
+            before_near = np.all(corners[:, :, 2] < near_m - margin_m, axis=1)
+            out[cand[beyond_side | before_near]] = True
+    for i in np.flatnonzero(out):
+        geoms[i].type = mujoco.mjtGeom.mjGEOM_NONE
+    return int(np.count_nonzero(out))
+
+
+_CORNER_SIGNS = np.array([[x, y, z] for x in (-1.0, 1.0) for y in (-1.0, 1.0) for z in (-1.0, 1.0)])

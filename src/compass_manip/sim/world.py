@@ -127,6 +127,9 @@ class World:
         #: leave geoms wholly outside the wrist camera's view out of its renders (the same
         #: images, `sim.rgbd.cull_outside_view`); False renders every geom
         self.cull_outside_view = True
+        #: `contacts` lets MuJoCo test only the pairs with a robot geom (the same contacts,
+        #: `_robot_only_scene_geoms`); False tests every pair as `mj_collision` does
+        self.robot_pairs_only = True
         self._view_planes = view_planes(self.camera.K, self.camera.width, self.camera.height)
         self._ray_dirs_cam: np.ndarray | None = None
         # geom classification and labels
@@ -154,6 +157,7 @@ class World:
         self._floor_geom = m.geom("floor").id
         self._base_geom = m.geom("link0").id
         self._robot_body_depth = self._robot_tree_depth()
+        self._scene_geoms = self._robot_only_scene_geoms()
         self.set_q(np.asarray(self.robot.q_home), GRIPPER_MAX_WIDTH)
 
     # ------------------------------------------------------------------ state
@@ -196,7 +200,7 @@ class World:
         r.scene.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = False
         if self.cull_outside_view:  # geoms wholly outside the wrist camera's view: no pixel
             cull_outside_view(r.scene, self.T_world_cam(), self._view_planes,
-                              self.model.vis.map.znear * self.model.stat.extent)
+                              self.model.vis.map.znear * self.model.stat.extent, geom_aabb=self.model.geom_aabb)
         return r
 
     def render_depth(self) -> np.ndarray:
@@ -305,6 +309,18 @@ class World:
             depth[b] = depth[m.body_parentid[b]] + 1
         return depth
 
+    def _robot_only_scene_geoms(self) -> np.ndarray | None:
+        """The scene's geom ids: with their contype at 0 MuJoCo tests exactly the pairs with a
+        robot geom that it tests with the model's own types (robot-scene and robot-robot),
+        and none between scene geoms (objects resting on shelves), whose contacts
+        `contacts` drops anyway. Exact when every colliding robot geom has contype equal to
+        conaffinity and the model has no explicit pairs; None (every pair tested) otherwise."""
+        m = self.model
+        robot = self.is_robot_geom & ((m.geom_contype != 0) | (m.geom_conaffinity != 0))
+        if m.npair or np.any(m.geom_contype[robot] != m.geom_conaffinity[robot]):
+            return None
+        return np.flatnonzero(~self.is_robot_geom)
+
     def _self_pair_ignored(self, b1: int, b2: int) -> bool:
         """Robot body pairs that touch by construction (within two links of each other)."""
         m = self.model
@@ -321,12 +337,21 @@ class World:
         """Ground-truth contacts of the robot at q with the scene (and itself if asked).
 
         The base link resting on the floor is not a contact. Contacts are reported only
-        with penetration (distance < 0).
+        with penetration (distance < 0). Afterwards `data.contact` holds the robot's pairs
+        only (`robot_pairs_only`).
         """
         if q is not None:
             self.set_q(q, finger_width)
         m, d = self.model, self.data
-        mujoco.mj_collision(m, d)
+        if self.robot_pairs_only and self._scene_geoms is not None:
+            contype = m.geom_contype.copy()
+            m.geom_contype[self._scene_geoms] = 0
+            try:
+                mujoco.mj_collision(m, d)
+            finally:
+                m.geom_contype[:] = contype
+        else:
+            mujoco.mj_collision(m, d)
         out = []
         if d.ncon == 0:
             return out

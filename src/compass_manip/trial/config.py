@@ -13,6 +13,7 @@ from ..motion.timing import TimingConfig
 from ..perception.buffer import BufferConfig
 from ..perception.detector import DETECTORS, DetectorConfig
 from ..sim.grasp_exec import GraspExecConfig
+from ..sim.advance import AdvanceConfig
 from ..sim.keyframes import KeyframeRule
 from .inspect import InspectConfig
 
@@ -44,13 +45,18 @@ class SensingConfig:
     since the last one, at least every 1.5 s), which saves about a tenth of the frames but
     sees less on the way (seed 404, Level 3, scene 3: COMPASS ran into the time limit with
     keyframes and found the target at 29.7 s with 3 Hz); check_step [rad] of the
-    ground-truth contact checks."""
+    ground-truth contact checks; advance: their conservative advancement (`sim.advance`:
+    samples proven contact-free are not tested, the same contacts; None: every sample)."""
 
     frame_rate: float = 3.0
     check_step: float = 0.005
     keyframes: KeyframeRule | None = None
+    advance: AdvanceConfig | None = None
 
     def __post_init__(self) -> None:
+        if self.advance is not None and not isinstance(self.advance, AdvanceConfig):
+            raise CompassInputError(f"SensingConfig.advance = {self.advance!r:.40} is not allowed; "
+                                    "use an AdvanceConfig or None")
         if self.keyframes is not None and not isinstance(self.keyframes, KeyframeRule):
             raise CompassInputError(f"SensingConfig.keyframes = {self.keyframes!r:.40} is not allowed; "
                                     "use a KeyframeRule or None")

@@ -104,7 +104,8 @@ class TrialMachine:
         limit = config.time_limit_s
         render_seg = self.pass_frames
         ex_cfg = ExecutorConfig(frame_rate=config.sensing.frame_rate, check_step=config.sensing.check_step,
-                                render_rgb=True, render_seg=render_seg, keyframes=config.sensing.keyframes)
+                                render_rgb=True, render_seg=render_seg, keyframes=config.sensing.keyframes,
+                                advance=config.sensing.advance)
         q0 = self.world.q
         self.observer.start(self.world, self.method)
         self._feed(self.world.render(q0, t=0.0, rgb=True, seg=render_seg))
