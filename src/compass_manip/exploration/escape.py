@@ -20,19 +20,54 @@ from ..robot.model import Q_MAX, Q_MIN
 
 @dataclass(frozen=True)
 class EscapeConfig:
-    """samples around the current configuration, within +-radius [rad] per joint;
-    tolerance [rad]: the longest stretch next to the current configuration allowed to be
-    invalid; resolution [rad] of the segment check."""
+    """samples around the current configuration, spread over radius tiers: within
+    +-radius, +-radius/2, ... [rad] per joint, down to the smallest tier above tolerance
+    (a uniform draw within +-radius over seven joints almost never lands in the thin valid
+    shell next to an obstacle the arm stands beside); axis_step [rad]: moves of one joint at
+    a time, in steps of axis_step up to radius, are candidates too (the way out is often
+    along one joint, e.g. the shoulder lifting the hand off a face frame); tolerance [rad]:
+    the longest stretch next to the current configuration allowed to be invalid;
+    resolution [rad] of the segment check."""
 
     samples: int = 200
     radius: float = 0.25
     tolerance: float = 0.06
     resolution: float = 0.005
+    axis_step: float = 0.03
 
     def __post_init__(self) -> None:
         if self.samples < 1 or not 0 < self.tolerance < self.radius:
             raise CompassInputError(f"EscapeConfig needs samples >= 1 and 0 < tolerance {self.tolerance} < "
                                     f"radius {self.radius}")
+        if not 0 < self.axis_step <= self.radius:
+            raise CompassInputError(f"EscapeConfig.axis_step {self.axis_step} rad must be in (0, radius "
+                                    f"{self.radius}]")
+
+    @property
+    def tiers(self) -> tuple[float, ...]:
+        """Sampling radii [rad]: radius halved while it stays above tolerance."""
+        out = [self.radius]
+        while out[-1] / 2 > self.tolerance:
+            out.append(out[-1] / 2)
+        return tuple(out)
+
+
+def escape_candidates(q: np.ndarray, config: EscapeConfig, rng: np.random.Generator) -> np.ndarray:
+    """Candidate goals (n, 7) [rad] around q: config.samples uniform draws split over the
+    radius tiers, plus single-joint moves of k * axis_step (both signs), within the limits."""
+    q = np.asarray(q, float)
+    tiers = config.tiers
+    counts = np.full(len(tiers), config.samples // len(tiers))
+    counts[: config.samples % len(tiers)] += 1
+    parts = [rng.uniform(np.maximum(Q_MIN, q - r), np.minimum(Q_MAX, q + r), (int(n), 7))
+             for r, n in zip(tiers, counts)]
+    steps = np.arange(1, int(np.floor(config.radius / config.axis_step + 1e-9)) + 1) * config.axis_step
+    for j in range(7):
+        for sign in (-1.0, 1.0):
+            A = np.repeat(q[None], len(steps), axis=0)
+            A[:, j] = np.clip(q[j] + sign * steps, Q_MIN[j], Q_MAX[j])
+            parts.append(A)
+    return np.vstack(parts)
 
 
 def valid_after_start(checker, path: np.ndarray, tolerance: float, resolution: float) -> bool:
@@ -51,8 +86,7 @@ def escape_path(checker, q: np.ndarray, config: EscapeConfig, rng: np.random.Gen
     """A path (2, 7) [rad] from q to the nearest sampled valid configuration reachable as
     described in the module docstring, or None."""
     q = np.asarray(q, float)
-    Q = rng.uniform(np.maximum(Q_MIN, q - config.radius), np.minimum(Q_MAX, q + config.radius),
-                    (config.samples, 7))
+    Q = escape_candidates(q, config, rng)
     Q = Q[checker.are_valid(Q)]
     for qc in Q[np.argsort(np.max(np.abs(Q - q), axis=1), kind="stable")]:
         span = float(np.max(np.abs(qc - q)))
