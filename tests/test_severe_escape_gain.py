@@ -35,6 +35,9 @@ class SlabChecker:
         bad = ~self.are_valid(q0 + s[:, None] * (q1 - q0))
         return float(s[np.argmax(bad)]) if bad.any() else None
 
+    def clearance(self, q):  # grows with joint j's move towards the slab, as a link leaves a wall
+        return float(np.asarray(q)[self.j] - self.q0[self.j] - self.lo)
+
     def path_valid(self, P, resolution):
         return all(self.first_invalid(a, b, resolution) is None for a, b in zip(P[:-1], P[1:]))
 
@@ -49,6 +52,10 @@ def test_escape_finds_a_thin_valid_set_along_one_joint():
     moved = np.flatnonzero(np.abs(path[1] - q) > 1e-12)
     np.testing.assert_array_equal(moved, [1])
     assert path[1, 1] - q[1] == pytest.approx(0.06)  # the nearest axis step past 0.05 rad
+    # the same slab on the other side: the way out first moves closer (clearance falls), refused
+    mirrored = SlabChecker(q, j=1, lo=0.05, hi=0.2, tol=0.01)
+    mirrored.clearance = lambda qq: -float(np.asarray(qq)[1] - q[1])
+    assert escape_path(mirrored, q, config, np.random.default_rng(0)) is None
     # uniform draws alone (no single-joint moves, one tier) miss a set this thin
     Q = np.random.default_rng(0).uniform(q - 0.25, q + 0.25, (200, 7))
     assert not checker.are_valid(Q).any()

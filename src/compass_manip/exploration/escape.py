@@ -27,13 +27,16 @@ class EscapeConfig:
     a time, in steps of axis_step up to radius, are candidates too (the way out is often
     along one joint, e.g. the shoulder lifting the hand off a face frame); tolerance [rad]:
     the longest stretch next to the current configuration allowed to be invalid;
-    resolution [rad] of the segment check."""
+    resolution [rad] of the segment check; max_approach [m]: along the invalid stretch the
+    map clearance may fall at most this much below the current configuration's (the grid's
+    lookup is piecewise constant), so the escape never moves into what it stands beside."""
 
     samples: int = 200
     radius: float = 0.25
     tolerance: float = 0.06
     resolution: float = 0.005
     axis_step: float = 0.03
+    max_approach: float = 0.005
 
     def __post_init__(self) -> None:
         if self.samples < 1 or not 0 < self.tolerance < self.radius:
@@ -70,15 +73,25 @@ def escape_candidates(q: np.ndarray, config: EscapeConfig, rng: np.random.Genera
     return np.vstack(parts)
 
 
-def valid_after_start(checker, path: np.ndarray, tolerance: float, resolution: float) -> bool:
+def valid_after_start(checker, path: np.ndarray, tolerance: float, resolution: float,
+                      max_approach: float | None = None) -> bool:
     """True if every state of the joint path (m, 7) [rad], checked at resolution [rad], is
-    valid except within tolerance [rad] (largest joint change) of its first state."""
+    valid except within tolerance [rad] (largest joint change) of its first state; with
+    max_approach [m], the states of that invalid stretch must also keep the checker's
+    clearance within max_approach of the first state's (the arm leaves the obstacle it
+    stands by, never moves into it)."""
     P = np.asarray(path, float)
     q, q1 = P[0], P[1]
     span = float(np.max(np.abs(q1 - q)))
     s = checker.first_invalid(q1, q, resolution)  # scanned from the far end towards the start
     if s is not None and (1.0 - s) * span > tolerance:
         return False
+    if s is not None and max_approach is not None:
+        n = max(1, int(np.ceil((1.0 - s) * span / resolution)))
+        c0 = checker.clearance(q)
+        for t in np.linspace(0.0, 1.0 - s, n + 1)[1:]:
+            if checker.clearance(q + t * (q1 - q)) < c0 - max_approach:
+                return False
     return len(P) == 2 or checker.path_valid(P[1:], resolution)
 
 
@@ -92,6 +105,6 @@ def escape_path(checker, q: np.ndarray, config: EscapeConfig, rng: np.random.Gen
         span = float(np.max(np.abs(qc - q)))
         if span <= config.tolerance:
             continue
-        if valid_after_start(checker, np.stack([q, qc]), config.tolerance, config.resolution):
+        if valid_after_start(checker, np.stack([q, qc]), config.tolerance, config.resolution, config.max_approach):
             return np.stack([q, qc])
     return None
