@@ -21,6 +21,9 @@ class BallChecker:
     def is_valid(self, q):
         return bool(self.are_valid(np.asarray(q)[None])[0])
 
+    def clearance(self, q):  # [rad] here, the max-norm distance outside the ball
+        return float(np.max(np.abs(np.asarray(q) - self.centre)) - self.radius)
+
     def first_invalid(self, q0, q1, resolution):
         n = max(1, int(np.ceil(np.max(np.abs(q1 - q0)) / resolution)))
         s = np.arange(n + 1) / n

@@ -198,7 +198,8 @@ class CompassMethod:
         if config.tree.gain_in_space:
             m = config.tree.space_margin
             self._gain_map = safe_box_map(self.world.occ, np.asarray(self.task.space.interior_min) - m,
-                                          np.asarray(self.task.space.interior_max) + m, self._gain_map)
+                                          np.asarray(self.task.space.interior_max) + m, self._gain_map,
+                                          keep_occupied=True)
             gain_map = self._gain_map
         gain_scope = "space" if gain_map is not None else "all"
         for factor in (1, config.retry_iterations_factor):

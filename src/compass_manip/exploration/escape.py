@@ -20,30 +20,78 @@ from ..robot.model import Q_MAX, Q_MIN
 
 @dataclass(frozen=True)
 class EscapeConfig:
-    """samples around the current configuration, within +-radius [rad] per joint;
-    tolerance [rad]: the longest stretch next to the current configuration allowed to be
-    invalid; resolution [rad] of the segment check."""
+    """samples around the current configuration, spread over radius tiers: within
+    +-radius, +-radius/2, ... [rad] per joint, down to the smallest tier above tolerance
+    (a uniform draw within +-radius over seven joints almost never lands in the thin valid
+    shell next to an obstacle the arm stands beside); axis_step [rad]: moves of one joint at
+    a time, in steps of axis_step up to radius, are candidates too (the way out is often
+    along one joint, e.g. the shoulder lifting the hand off a face frame); tolerance [rad]:
+    the longest stretch next to the current configuration allowed to be invalid;
+    resolution [rad] of the segment check; max_approach [m]: along the invalid stretch the
+    map clearance may fall at most this much below the current configuration's (the grid's
+    lookup is piecewise constant), so the escape never moves into what it stands beside."""
 
     samples: int = 200
     radius: float = 0.25
     tolerance: float = 0.06
     resolution: float = 0.005
+    axis_step: float = 0.03
+    max_approach: float = 0.005
 
     def __post_init__(self) -> None:
         if self.samples < 1 or not 0 < self.tolerance < self.radius:
             raise CompassInputError(f"EscapeConfig needs samples >= 1 and 0 < tolerance {self.tolerance} < "
                                     f"radius {self.radius}")
+        if not 0 < self.axis_step <= self.radius:
+            raise CompassInputError(f"EscapeConfig.axis_step {self.axis_step} rad must be in (0, radius "
+                                    f"{self.radius}]")
+
+    @property
+    def tiers(self) -> tuple[float, ...]:
+        """Sampling radii [rad]: radius halved while it stays above tolerance."""
+        out = [self.radius]
+        while out[-1] / 2 > self.tolerance:
+            out.append(out[-1] / 2)
+        return tuple(out)
 
 
-def valid_after_start(checker, path: np.ndarray, tolerance: float, resolution: float) -> bool:
+def escape_candidates(q: np.ndarray, config: EscapeConfig, rng: np.random.Generator) -> np.ndarray:
+    """Candidate goals (n, 7) [rad] around q: config.samples uniform draws split over the
+    radius tiers, plus single-joint moves of k * axis_step (both signs), within the limits."""
+    q = np.asarray(q, float)
+    tiers = config.tiers
+    counts = np.full(len(tiers), config.samples // len(tiers))
+    counts[: config.samples % len(tiers)] += 1
+    parts = [rng.uniform(np.maximum(Q_MIN, q - r), np.minimum(Q_MAX, q + r), (int(n), 7))
+             for r, n in zip(tiers, counts)]
+    steps = np.arange(1, int(np.floor(config.radius / config.axis_step + 1e-9)) + 1) * config.axis_step
+    for j in range(7):
+        for sign in (-1.0, 1.0):
+            A = np.repeat(q[None], len(steps), axis=0)
+            A[:, j] = np.clip(q[j] + sign * steps, Q_MIN[j], Q_MAX[j])
+            parts.append(A)
+    return np.vstack(parts)
+
+
+def valid_after_start(checker, path: np.ndarray, tolerance: float, resolution: float,
+                      max_approach: float | None = None) -> bool:
     """True if every state of the joint path (m, 7) [rad], checked at resolution [rad], is
-    valid except within tolerance [rad] (largest joint change) of its first state."""
+    valid except within tolerance [rad] (largest joint change) of its first state; with
+    max_approach [m], the states of that invalid stretch must also keep the checker's
+    clearance within max_approach of the first state's (the arm leaves the obstacle it
+    stands by, never moves into it)."""
     P = np.asarray(path, float)
     q, q1 = P[0], P[1]
     span = float(np.max(np.abs(q1 - q)))
     s = checker.first_invalid(q1, q, resolution)  # scanned from the far end towards the start
     if s is not None and (1.0 - s) * span > tolerance:
         return False
+    if s is not None and max_approach is not None:
+        n = max(1, int(np.ceil((1.0 - s) * span / resolution)))
+        c0 = checker.clearance(q)
+        for t in np.linspace(0.0, 1.0 - s, n + 1)[1:]:
+            if checker.clearance(q + t * (q1 - q)) < c0 - max_approach:
+                return False
     return len(P) == 2 or checker.path_valid(P[1:], resolution)
 
 
@@ -51,13 +99,12 @@ def escape_path(checker, q: np.ndarray, config: EscapeConfig, rng: np.random.Gen
     """A path (2, 7) [rad] from q to the nearest sampled valid configuration reachable as
     described in the module docstring, or None."""
     q = np.asarray(q, float)
-    Q = rng.uniform(np.maximum(Q_MIN, q - config.radius), np.minimum(Q_MAX, q + config.radius),
-                    (config.samples, 7))
+    Q = escape_candidates(q, config, rng)
     Q = Q[checker.are_valid(Q)]
     for qc in Q[np.argsort(np.max(np.abs(Q - q), axis=1), kind="stable")]:
         span = float(np.max(np.abs(qc - q)))
         if span <= config.tolerance:
             continue
-        if valid_after_start(checker, np.stack([q, qc]), config.tolerance, config.resolution):
+        if valid_after_start(checker, np.stack([q, qc]), config.tolerance, config.resolution, config.max_approach):
             return np.stack([q, qc])
     return None

@@ -95,14 +95,21 @@ def reachable_candidates(checker, q_now: np.ndarray, Q: np.ndarray, resolution: 
     return np.array(out).reshape(-1, 7)
 
 
-def safe_box_map(occ: OccupancyMap, box_min: np.ndarray, box_max: np.ndarray, out: OccupancyMap | None = None
-                 ) -> OccupancyMap:
+def safe_box_map(occ: OccupancyMap, box_min: np.ndarray, box_max: np.ndarray, out: OccupancyMap | None = None,
+                 keep_occupied: bool = False) -> OccupancyMap:
     """A map whose unknown voxels are those of occ inside the world box (others FREE), so
-    that information gain counts only the unknown volume of Omega_safe."""
+    that information gain counts only the unknown volume of Omega_safe. keep_occupied:
+    voxels seen occupied outside the box stay OCCUPIED, so that they still stop the gain's
+    rays (a wall or face frame just outside the box hides what lies behind it; freed, the
+    gain counts voxels behind it that no camera on this side can see)."""
     out = out if out is not None else OccupancyMap(occ.config)
     lo = np.clip(occ.world_to_voxel(np.asarray(box_min)[None])[0], 0, np.asarray(occ.shape))
     hi = np.clip(occ.world_to_voxel(np.asarray(box_max)[None])[0] + 1, 0, np.asarray(occ.shape))
-    out.state[...] = VoxelState.FREE
+    if keep_occupied:
+        out.state[...] = VoxelState.FREE
+        out.state[occ.state == VoxelState.OCCUPIED] = VoxelState.OCCUPIED
+    else:
+        out.state[...] = VoxelState.FREE
     sl = tuple(slice(a, b) for a, b in zip(lo, hi))
     out.state[sl] = occ.state[sl]
     return out

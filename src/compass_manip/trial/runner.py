@@ -16,6 +16,7 @@ from ..errors import CompassInputError
 from ..exploration.registry import available_methods, make_method
 from ..perception.buffer import DetectionBuffer
 from ..perception.detector import DETECTORS
+from ..perception.self_mask import SelfMaskedDetector
 from ..robot.kinematics import PandaKinematics
 from ..robot.spheres import panda_sphere_model
 from ..sim.certify import certified_scene
@@ -106,8 +107,8 @@ def run_trial_full(spec: TrialSpec, config: TrialConfig | None = None, progress=
     else:
         method = make_method(method_name, task, config.method, rng, q0, world.camera.K)
     oracle = config.detector_kind == ORACLE_DETECTOR
-    detector = OracleSegmentationDetector(world.target_label) if oracle else DETECTORS[config.detector_kind](
-        config.detector)
+    detector = OracleSegmentationDetector(world.target_label) if oracle else SelfMaskedDetector(
+        DETECTORS[config.detector_kind](config.detector), panda_sphere_model(world.robot))
     buffer = DetectionBuffer(detector, task.target, config.buffer)
     metrics = MetricsRecorder(PandaKinematics(world.robot), target_surroundings(scene, config.surroundings_margin))
     grasp, inspect = None, None
