@@ -1,14 +1,19 @@
 """Trial functions for `compass bench --trial-fn` with the grasp stage's settings changed
 (the default trial runs `TrialConfig()`): put `benchmarks/` on PYTHONPATH and pass e.g.
-`--trial-fn trial_variants:grasp_map_no_near_body`.
+`--trial-fn trial_variants:grasp_map_no_near_body`. Each NAME has its config in NAME_config().
 
 * grasp_map_no_near_body: GRASP and INSPECT on the 1 cm map of every depth frame
   (`GraspTrialConfig.grasp_map`), with no unknown space near the body taken as free
-  (`near_body_free=False`).
+  (`near_body_free=False`), the hand checked on that map only (`fine_map=False`).
+* grasp_map_fine: as grasp_map_no_near_body, and the hand's checks near the target on the
+  grasp map's frames integrated again at 5 mm (`GraspTrialConfig.fine_map`).
+* grasp_scan: as grasp_map_fine, with the near-field scan before INSPECT
+  (`GraspTrialConfig.scan`, `trial.grasp_scan`).
 """
 from __future__ import annotations
 
 from compass_manip.trial.config import GraspTrialConfig, TrialConfig
+from compass_manip.trial.grasp_scan import TrialScanConfig
 from compass_manip.trial.runner import TrialSpec, run_trial
 
 
@@ -17,5 +22,26 @@ def _run(spec, config: TrialConfig) -> tuple[dict, dict]:
     return config.to_dict(), run_trial(ts, config).to_dict()
 
 
+def grasp_map_no_near_body_config() -> TrialConfig:
+    return TrialConfig(grasp=GraspTrialConfig(grasp_map=True, near_body_free=False, fine_map=False))
+
+
+def grasp_map_fine_config() -> TrialConfig:
+    return TrialConfig(grasp=GraspTrialConfig(grasp_map=True, near_body_free=False, fine_map=True))
+
+
+def grasp_scan_config() -> TrialConfig:
+    return TrialConfig(grasp=GraspTrialConfig(grasp_map=True, near_body_free=False, fine_map=True,
+                                              scan=TrialScanConfig()))
+
+
 def grasp_map_no_near_body(spec) -> tuple[dict, dict]:
-    return _run(spec, TrialConfig(grasp=GraspTrialConfig(grasp_map=True, near_body_free=False)))
+    return _run(spec, grasp_map_no_near_body_config())
+
+
+def grasp_map_fine(spec) -> tuple[dict, dict]:
+    return _run(spec, grasp_map_fine_config())
+
+
+def grasp_scan(spec) -> tuple[dict, dict]:
+    return _run(spec, grasp_scan_config())
