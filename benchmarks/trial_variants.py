@@ -9,6 +9,8 @@
   grasp map's frames integrated again at 5 mm (`GraspTrialConfig.fine_map`).
 * grasp_scan: as grasp_map_fine, with the near-field scan before INSPECT
   (`GraspTrialConfig.scan`, `trial.grasp_scan`).
+* grasp_scan_via: as grasp_scan, and a path to the pre-grasp via the home posture when no
+  direct one plans (`GraspTrialConfig.plan_via_home`).
 """
 from __future__ import annotations
 
@@ -35,6 +37,11 @@ def grasp_scan_config() -> TrialConfig:
                                               scan=TrialScanConfig()))
 
 
+def grasp_scan_via_config() -> TrialConfig:
+    return TrialConfig(grasp=GraspTrialConfig(grasp_map=True, near_body_free=False, fine_map=True,
+                                              scan=TrialScanConfig(), plan_via_home=True))
+
+
 def grasp_map_no_near_body(spec) -> tuple[dict, dict]:
     return _run(spec, grasp_map_no_near_body_config())
 
@@ -45,3 +52,7 @@ def grasp_map_fine(spec) -> tuple[dict, dict]:
 
 def grasp_scan(spec) -> tuple[dict, dict]:
     return _run(spec, grasp_scan_config())
+
+
+def grasp_scan_via(spec) -> tuple[dict, dict]:
+    return _run(spec, grasp_scan_via_config())

@@ -71,7 +71,9 @@ class GraspTrialConfig:
     (`trial.grasp_map`) instead of the method's (2 cm for the exploration methods); with it,
     fine_map: the grasp map's frames integrated again at 5 mm within fine_margin [m] of the
     target's points for the hand's checks (as in the grasp-only harness); scan: the
-    near-field scan before INSPECT (`trial.grasp_scan`, on the grasp map; max_views=0: off)."""
+    near-field scan before INSPECT (`trial.grasp_scan`, on the grasp map; max_views=0: off);
+    plan_via_home: when no path to the pre-grasps plans directly, the selection tries one via
+    the home posture (`select_grasp(q_via=...)`)."""
 
     enabled: bool = True
     target: TargetConfig = field(default_factory=TargetConfig)
@@ -85,6 +87,7 @@ class GraspTrialConfig:
     fine_map: bool = True
     fine_margin: float = 0.2
     scan: TrialScanConfig = field(default_factory=lambda: TrialScanConfig(max_views=0))
+    plan_via_home: bool = False
 
     def __post_init__(self) -> None:
         if not 0.02 <= self.fine_margin <= 0.5:

@@ -104,7 +104,7 @@ def run_grasp_stage(world, occupancy, detection, task, q_current: np.ndarray, mo
                                   config.select.field_upsample)
         t_fine = time.perf_counter() - t0
     sel = select_grasp(target, occupancy, task, q_current, spheres, config.select, rng, extra_safe=extra,
-                       fine_map=fine)
+                       fine_map=fine, q_via=np.asarray(world.robot.q_home) if config.plan_via_home else None)
     charge = sel.time_s + t_fine if planning_charge_s is None else planning_charge_s
     if sel.failure is not None:
         return GraspStageResult(_SELECT_FAILURE[sel.failure], charge, sel, None, q_current, 0)
