@@ -14,8 +14,10 @@
 """
 from __future__ import annotations
 
+from compass_manip.grasp.select import GraspSelectConfig
 from compass_manip.trial.config import GraspTrialConfig, TrialConfig
 from compass_manip.trial.grasp_scan import TrialScanConfig
+from compass_manip.trial.inspect import InspectConfig
 from compass_manip.trial.runner import TrialSpec, run_trial
 
 
@@ -56,3 +58,26 @@ def grasp_scan(spec) -> tuple[dict, dict]:
 
 def grasp_scan_via(spec) -> tuple[dict, dict]:
     return _run(spec, grasp_scan_via_config())
+
+
+def grasp_scan_more_config() -> TrialConfig:
+    """grasp_scan_via with 150 candidates checked by IK instead of 60 (`GraspSelectConfig.max_checked`)."""
+    return TrialConfig(grasp=GraspTrialConfig(grasp_map=True, near_body_free=False, fine_map=True,
+                                              scan=TrialScanConfig(), plan_via_home=True,
+                                              select=GraspSelectConfig(max_checked=150)))
+
+
+def grasp_scan_more(spec) -> tuple[dict, dict]:
+    return _run(spec, grasp_scan_more_config())
+
+
+def grasp_scan_long_config() -> TrialConfig:
+    """grasp_scan_more with up to 16 scan views and INSPECT views taken from 0.5 % of the hypotheses' weight."""
+    return TrialConfig(grasp=GraspTrialConfig(grasp_map=True, near_body_free=False, fine_map=True,
+                                              scan=TrialScanConfig(max_views=16), plan_via_home=True,
+                                              select=GraspSelectConfig(max_checked=150),
+                                              inspect=InspectConfig(min_fraction=0.005)))
+
+
+def grasp_scan_long(spec) -> tuple[dict, dict]:
+    return _run(spec, grasp_scan_long_config())

@@ -44,6 +44,7 @@ class GraspMap(TrialObserver):
         self.max_range, self.swept_margin, self.start_margin, self.sweep_step = \
             max_range, swept_margin, start_margin, sweep_step
         self.swept_all = np.zeros(self.occ.shape, bool)
+        self._way: list[np.ndarray] = []
 
     def _mark(self, Q: np.ndarray, margin: float) -> None:
         mark_configs(self.swept_all, self.occ, self.spheres, Q, margin)
@@ -53,11 +54,20 @@ class GraspMap(TrialObserver):
         """(nx,ny,nz) bool: the robot's own space, less voxels seen occupied."""
         return self.swept_all & (self.occ.state != VoxelState.OCCUPIED)
 
+    @property
+    def way(self) -> np.ndarray:
+        """(m, 7) [rad]: the configurations the arm moved through (every sweep_step), in order."""
+        return np.vstack(self._way) if self._way else np.zeros((0, 7))
+
     def start(self, world, method) -> None:
-        self._mark(np.asarray(world.q)[None], self.start_margin)
+        q = np.asarray(world.q, dtype=np.float64)[None]
+        self._mark(q, self.start_margin)
+        self._way.append(q)
 
     def motion(self, trajectory, t_start: float, t_end: float) -> None:
-        self._mark(densify(np.asarray(trajectory.q), self.sweep_step), self.swept_margin)
+        Q = densify(np.asarray(trajectory.q), self.sweep_step)
+        self._mark(Q, self.swept_margin)
+        self._way.append(np.asarray(Q, dtype=np.float64))
 
     def frame(self, frame, method) -> None:
         obs = frame.observation()

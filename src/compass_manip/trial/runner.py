@@ -135,7 +135,10 @@ def run_trial_full(spec: TrialSpec, config: TrialConfig | None = None, progress=
         scan_rng = np.random.default_rng(np.random.SeedSequence((spec.seed, spec.level, spec.scene, spec.trial, 13)))
         inspect = NearFieldScanner(lambda: gmap.occ, method.world, world.camera.K,
                                    (world.camera.width, world.camera.height), world.robot.q_home,
-                                   world.robot.base_pos, config.grasp.scan, scan_rng, then=inspect)
+                                   world.robot.base_pos, config.grasp.scan, scan_rng, then=inspect,
+                                   way_of=lambda: gmap.way)
+        if isinstance(inspect.then, GraspInspector):  # INSPECT scores the way's neighbours too
+            inspect.then.more_candidates = inspect.near_way
         n_inspect += config.grasp.scan.max_views
     if config.grasp.enabled:
         grasp_rng = np.random.default_rng(np.random.SeedSequence((spec.seed, spec.level, spec.scene, spec.trial, 11)))
