@@ -173,3 +173,35 @@ def test_plan_via_goes_through_the_via_posture_and_fails_when_it_cannot_reach_it
     blocked = _BallChecker(via, 0.05)  # the via posture itself is invalid
     res, path = _plan_via(q0, via, goal[None], blocked, cfg, np.random.default_rng(0))
     assert not res.success and path is None
+
+
+def test_scan_candidates_next_to_the_way_stay_near_it_and_within_the_limits():
+    from compass_manip.robot.model import Q_HOME, Q_MAX, Q_MIN
+
+    way = np.stack([np.array(Q_HOME, float) + np.r_[d, np.zeros(6)] for d in (0.0, 0.3, -0.3)])
+    cfg = TrialScanConfig(way_candidates=3000, way_sigma=0.05, wrist_sigma=0.4)
+    s = NearFieldScanner(lambda: None, None, np.eye(3), (320, 240), np.array(Q_HOME, float), np.zeros(3), cfg,
+                         np.random.default_rng(0), way_of=lambda: way)
+    Q = s.near_way(way[0])
+    assert Q.shape == (3000, 7) and np.all(Q >= Q_MIN) and np.all(Q <= Q_MAX)
+    d = np.min(np.abs(Q[:, None, :4] - way[None, :, :4]).max(axis=2), axis=1)  # to the nearest way config
+    assert np.percentile(d, 95) < 0.2  # joints 1-4 within a few way_sigma of a way configuration
+    spread = np.std(Q[:, 4:] - way[np.argmin(np.abs(Q[:, None, :4] - way[None, :, :4]).max(axis=2), axis=1), 4:])
+    assert 0.25 < spread < 0.45  # the wrist moves by about wrist_sigma (clipped at the limits)
+    assert NearFieldScanner(lambda: None, None, np.eye(3), (320, 240), np.zeros(7), np.zeros(3),
+                            TrialScanConfig(way_candidates=0), np.random.default_rng(0)).near_way(way[0]).shape == (0, 7)
+
+
+def test_grasp_map_keeps_the_way_the_arm_moved():
+    from compass_manip.robot.model import Q_HOME, RobotConfig
+
+    gm = GraspMap(RobotConfig(), keep_frames=False)
+    q0 = np.array(Q_HOME, float)
+    gm.start(SimpleNamespace(q=q0), None)
+    q1 = q0.copy()
+    q1[0] += 0.5
+    gm.motion(SimpleNamespace(q=np.stack([q0, q1])), 0.0, 1.0)
+    W = gm.way
+    assert np.allclose(W[0], q0) and np.allclose(W[-1], q1) and len(W) >= 1 + 0.5 / gm.sweep_step
+    assert np.all(np.diff(W[1:, 0]) <= gm.sweep_step + 1e-9)  # sampled every sweep_step
+    assert gm.swept.any()
