@@ -97,6 +97,8 @@ def main() -> int:
                     help="the map with OctoMap's update rule (no surface guard, no sticky hits)")
     ap.add_argument("--near-body-free", action="store_true",
                     help="take the unknown space links 0-4 sweep near home as free (the old assumption)")
+    ap.add_argument("--min-visibility", type=float, default=None,
+                    help="the oracle start's minimum target visibility (default GraspOnlyConfig's, 0.15)")
     args = ap.parse_args()
     inspect = InspectConfig() if args.inspect_views is None else InspectConfig(n_views=args.inspect_views)
     variants = [v == "on" for v in args.variants.split(",")]
@@ -107,6 +109,8 @@ def main() -> int:
             for constrained in variants:
                 config = GraspOnlyConfig(select=GraspSelectConfig(constrained=constrained), fine_map=not args.no_fine_map,
                                          inspect=inspect, near_body_free=args.near_body_free,
+                                         **({} if args.min_visibility is None
+                                            else {"min_visibility": args.min_visibility}),
                                          map=MapConfig(surface_guard=False, sticky_hits=0) if args.octomap_rule
                                          else MapConfig(),
                                          **({"near_field_scan": None} if args.no_near_scan
