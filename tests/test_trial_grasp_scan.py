@@ -45,8 +45,8 @@ def test_grasp_stage_checks_the_hand_on_the_fine_map_of_the_grasp_maps_frames(mo
         det = SimpleNamespace(points_world=oracle_detection(world, view), T_world_cam=view.T_world_cam)
         seen = []
 
-        def fake_select(target, occ, task_, q, spheres, config, rng, extra_safe=None, fine_map=None):
-            seen.append((occ, fine_map))
+        def fake_select(target, occ, task_, q, spheres, config, rng, extra_safe=None, fine_map=None, q_via=None):
+            seen.append((occ, fine_map, q_via))
             return GraspSelection(None, 0.0, 0.0, None, None, None, None, float("nan"), False, 0.0, np.zeros(3), 0,
                                   {}, 0.25, 0.0, GraspFailure.NO_APPROACH_PATH)
 
@@ -55,12 +55,14 @@ def test_grasp_stage_checks_the_hand_on_the_fine_map_of_the_grasp_maps_frames(mo
         r = grasp_stage.run_grasp_stage(world, gm.occ, det, task, q_view, [], GraspTrialConfig(grasp_map=True,
                                         near_body_free=False), rng, 0.1, grasp_map=gm)
         grasp_stage.run_grasp_stage(world, gm.occ, det, task, q_view, [], GraspTrialConfig(
-            grasp_map=True, near_body_free=False, fine_map=False), rng, 0.1, grasp_map=gm)
+            grasp_map=True, near_body_free=False, fine_map=False, plan_via_home=True), rng, 0.1, grasp_map=gm)
+        q_home = np.asarray(world.robot.q_home)
     finally:
         world.close()
     assert r.failure is TrialFailure.GRASP_NO_PATH
-    (occ, fine), (_, none) = seen
+    (occ, fine, via0), (_, none, via1) = seen
     assert occ is gm.occ and none is None
+    assert via0 is None and np.allclose(via1, q_home)  # plan_via_home hands the home posture to the selection
     assert fine.resolution == pytest.approx(occ.resolution / 2)
     pts = det.points_world
     assert np.all(fine.grid_min <= pts.min(0) - 0.2 + 1e-9) and np.all(fine.grid_max >= pts.max(0) + 0.2 - 1e-9)
