@@ -26,16 +26,56 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 import numpy as np
 
 from compass_manip.bench.stats import emit_samples, emit_value, load_average
-from compass_manip.grasp.select import GraspSelectConfig
+from compass_manip.grasp.candidates import AntipodalProposer, propose_in_cone
+from compass_manip.grasp.select import GraspSelectConfig, desired_approach
 from compass_manip.sim.certify import certified_scene
 from compass_manip.mapping.occupancy import MapConfig
 from compass_manip.sim.grasp_only import GraspOnlyConfig, run_grasp_only
 from compass_manip.sim.near_field import WIDE_SCAN
+from compass_manip.sim.oracle import NECK_MIN_HEIGHT
+
+
+def neck_of(scene) -> tuple[np.ndarray, float, float, float] | None:
+    """Ground truth (the scene's spec, for this benchmark only): the target bottle's neck where
+    the oracle has neck candidates (`sim.oracle.grasp_candidates`: at least NECK_MIN_HEIGHT
+    long), as (axis xy (2,), radius, z bottom, z top) [m], else None."""
+    tgt = scene.target
+    if tgt.category != "bottle" or len(tgt.parts) < 2 or 2 * tgt.parts[1].half_extents[2] < NECK_MIN_HEIGHT - 1e-9:
+        return None
+    neck = tgt.parts[1]
+    h = np.asarray(neck.half_extents, dtype=np.float64)
+    return np.asarray(neck.pos[:2], dtype=np.float64), float(h[0]), float(neck.pos[2] - h[2]), float(neck.pos[2] + h[2])
 from compass_manip.trial.inspect import InspectConfig
 
 
-def trial_record(level: int, index: int, constrained: bool, r, wall: float) -> dict:
-    return {"level": level, "index": index, "constrained": constrained, **r.to_dict(), "wall_s": round(wall, 2)}
+def neck_stats(scene, r, seed: int) -> dict | None:
+    """For a target bottle with a graspable neck (ground truth: `sim.oracle.neck_of`): of the
+    in-cone candidates the selection's proposer makes on the harness's target model (its own
+    generator), how many close on the neck (TCP within the neck's height and 1 cm of its
+    radius from its axis) with an approach within 15 deg of horizontal, and whether the
+    selected grasp is such a one."""
+    neck = neck_of(scene)
+    if neck is None or r.target is None or r.selection is None:
+        return None
+    xy, radius, z0, z1 = neck
+    target, cfg = r.target, GraspSelectConfig()
+    n = desired_approach(target, scene.task())
+    cands = propose_in_cone(AntipodalProposer(cfg.candidates), target, np.random.default_rng([seed, 77]), n,
+                            cfg.max_approach_angle)
+
+    def on_neck(T):
+        p, z = T[..., :3, 3], T[..., :3, 2]
+        return ((p[..., 2] >= z0) & (p[..., 2] <= z1) & (np.linalg.norm(p[..., :2] - xy, axis=-1) <= radius + 0.01)
+                & (np.abs(z[..., 2]) <= np.sin(np.radians(15.0))))
+
+    s = r.selection
+    return {"candidates": len(cands), "on_neck_horizontal": int(np.count_nonzero(on_neck(cands.T_world_tcp))),
+            "selected_on_neck": None if s.T_world_tcp is None else bool(on_neck(s.T_world_tcp))}
+
+
+def trial_record(level: int, index: int, constrained: bool, r, wall: float, neck: dict | None = None) -> dict:
+    return {"level": level, "index": index, "constrained": constrained, **r.to_dict(), "wall_s": round(wall, 2),
+            "neck": neck}
 
 
 def main() -> int:
@@ -57,6 +97,8 @@ def main() -> int:
                     help="the map with OctoMap's update rule (no surface guard, no sticky hits)")
     ap.add_argument("--near-body-free", action="store_true",
                     help="take the unknown space links 0-4 sweep near home as free (the old assumption)")
+    ap.add_argument("--min-visibility", type=float, default=None,
+                    help="the oracle start's minimum target visibility (default GraspOnlyConfig's, 0.15)")
     args = ap.parse_args()
     inspect = InspectConfig() if args.inspect_views is None else InspectConfig(n_views=args.inspect_views)
     variants = [v == "on" for v in args.variants.split(",")]
@@ -67,13 +109,16 @@ def main() -> int:
             for constrained in variants:
                 config = GraspOnlyConfig(select=GraspSelectConfig(constrained=constrained), fine_map=not args.no_fine_map,
                                          inspect=inspect, near_body_free=args.near_body_free,
+                                         **({} if args.min_visibility is None
+                                            else {"min_visibility": args.min_visibility}),
                                          map=MapConfig(surface_guard=False, sticky_hits=0) if args.octomap_rule
                                          else MapConfig(),
                                          **({"near_field_scan": None} if args.no_near_scan
                                             else {"near_field_scan": WIDE_SCAN} if args.wide_scan else {}))
                 t0 = time.perf_counter()
                 r = run_grasp_only(scene, config, seed=args.seed)
-                rec = trial_record(level, index, constrained, r, time.perf_counter() - t0)
+                wall = time.perf_counter() - t0
+                rec = trial_record(level, index, constrained, r, wall, neck_stats(scene, r, args.seed))
                 recs.append(rec)
                 print(json.dumps(rec), file=sys.stderr, flush=True)
                 if args.out:

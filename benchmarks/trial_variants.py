@@ -1,15 +1,28 @@
 """Trial functions for `compass bench --trial-fn` with the grasp stage's settings changed
 (the default trial runs `TrialConfig()`): put `benchmarks/` on PYTHONPATH and pass e.g.
-`--trial-fn trial_variants:grasp_map_no_near_body`.
+`--trial-fn trial_variants:grasp_map_no_near_body`. Each NAME has its config in NAME_config().
 
 * grasp_map_no_near_body: GRASP and INSPECT on the 1 cm map of every depth frame
   (`GraspTrialConfig.grasp_map`), with no unknown space near the body taken as free
-  (`near_body_free=False`).
+  (`near_body_free=False`), the hand checked on that map only (`fine_map=False`).
+* grasp_map_fine: as grasp_map_no_near_body, and the hand's checks near the target on the
+  grasp map's frames integrated again at 5 mm (`GraspTrialConfig.fine_map`).
+* grasp_scan: as grasp_map_fine, with the near-field scan before INSPECT
+  (`GraspTrialConfig.scan`, `trial.grasp_scan`).
+* grasp_scan_via: as grasp_scan, and a path to the pre-grasp via the home posture when no
+  direct one plans (`GraspTrialConfig.plan_via_home`).
+* grasp_scan_more: as grasp_scan_via, with 150 candidates checked by IK instead of 60
+  (measured in docs/grasping.md, "End to end on the grasp map").
+* grasp_scan_long: as grasp_scan_more, with up to 16 scan views and INSPECT views accepted
+  from 0.5 % of the hypotheses' weight (`InspectConfig.min_fraction`).
 * find_only: no GRASP state (the trial ends at FOUND), as `compass run --find-only`.
 """
 from __future__ import annotations
 
+from compass_manip.grasp.select import GraspSelectConfig
 from compass_manip.trial.config import GraspTrialConfig, TrialConfig
+from compass_manip.trial.grasp_scan import TrialScanConfig
+from compass_manip.trial.inspect import InspectConfig
 from compass_manip.trial.runner import TrialSpec, run_trial
 
 
@@ -18,9 +31,66 @@ def _run(spec, config: TrialConfig) -> tuple[dict, dict]:
     return config.to_dict(), run_trial(ts, config).to_dict()
 
 
+def grasp_map_no_near_body_config() -> TrialConfig:
+    return TrialConfig(grasp=GraspTrialConfig(grasp_map=True, near_body_free=False, fine_map=False))
+
+
+def grasp_map_fine_config() -> TrialConfig:
+    return TrialConfig(grasp=GraspTrialConfig(grasp_map=True, near_body_free=False, fine_map=True))
+
+
+def grasp_scan_config() -> TrialConfig:
+    return TrialConfig(grasp=GraspTrialConfig(grasp_map=True, near_body_free=False, fine_map=True,
+                                              scan=TrialScanConfig()))
+
+
+def grasp_scan_via_config() -> TrialConfig:
+    return TrialConfig(grasp=GraspTrialConfig(grasp_map=True, near_body_free=False, fine_map=True,
+                                              scan=TrialScanConfig(), plan_via_home=True))
+
+
 def grasp_map_no_near_body(spec) -> tuple[dict, dict]:
-    return _run(spec, TrialConfig(grasp=GraspTrialConfig(grasp_map=True, near_body_free=False)))
+    return _run(spec, grasp_map_no_near_body_config())
+
+
+def grasp_map_fine(spec) -> tuple[dict, dict]:
+    return _run(spec, grasp_map_fine_config())
+
+
+def grasp_scan(spec) -> tuple[dict, dict]:
+    return _run(spec, grasp_scan_config())
+
+
+def grasp_scan_via(spec) -> tuple[dict, dict]:
+    return _run(spec, grasp_scan_via_config())
+
+
+def grasp_scan_more_config() -> TrialConfig:
+    """grasp_scan_via with 150 candidates checked by IK instead of 60 (`GraspSelectConfig.max_checked`)."""
+    return TrialConfig(grasp=GraspTrialConfig(grasp_map=True, near_body_free=False, fine_map=True,
+                                              scan=TrialScanConfig(), plan_via_home=True,
+                                              select=GraspSelectConfig(max_checked=150)))
+
+
+def grasp_scan_more(spec) -> tuple[dict, dict]:
+    return _run(spec, grasp_scan_more_config())
+
+
+def grasp_scan_long_config() -> TrialConfig:
+    """grasp_scan_more with up to 16 scan views and INSPECT views taken from 0.5 % of the hypotheses' weight."""
+    return TrialConfig(grasp=GraspTrialConfig(grasp_map=True, near_body_free=False, fine_map=True,
+                                              scan=TrialScanConfig(max_views=16), plan_via_home=True,
+                                              select=GraspSelectConfig(max_checked=150),
+                                              inspect=InspectConfig(min_fraction=0.005)))
+
+
+def grasp_scan_long(spec) -> tuple[dict, dict]:
+    return _run(spec, grasp_scan_long_config())
+
+
+def find_only_config() -> TrialConfig:
+    return TrialConfig(grasp=GraspTrialConfig(enabled=False))
 
 
 def find_only(spec) -> tuple[dict, dict]:
-    return _run(spec, TrialConfig(grasp=GraspTrialConfig(enabled=False)))
+    return _run(spec, find_only_config())

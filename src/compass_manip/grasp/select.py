@@ -30,7 +30,7 @@ import numpy as np
 from ..errors import CompassInputError
 from ..mapping.distance import DistanceField
 from ..mapping.occupancy import OccupancyMap, VoxelState
-from ..motion.planner import PlannerConfig, plan
+from ..motion.planner import PlannerConfig, PlanResult, plan
 from ..motion.primitives import DistanceGrid
 from ..motion.validity import ValidityChecker, ValidityConfig
 from ..robot.ik import PandaIK
@@ -160,6 +160,20 @@ class GraspSelection:
         return self.failure is None
 
 
+def _plan_via(q_current: np.ndarray, q_via: np.ndarray, goals: np.ndarray, checker, config: PlannerConfig,
+              rng: np.random.Generator):
+    """(PlanResult of the second leg with plan_time_s of both, the joined path or None):
+    q_current -> q_via, then q_via -> any of goals (k,7) [rad], each on `checker`."""
+    first = plan(q_current, np.asarray(q_via, dtype=np.float64)[None], checker, config, rng)
+    if not first.success:
+        return first, None
+    second = plan(first.path[-1], goals, checker, config, rng)
+    second = PlanResult(second.path, second.failure, second.goal_index, first.plan_time_s + second.plan_time_s,
+                        first.n_checks + second.n_checks)
+    path = np.vstack([first.path, second.path[1:]]) if second.success else None
+    return second, path
+
+
 def desired_approach(target: TargetModel, task: Task, tilt: float = math.radians(20.0),
                      elongation: float = 1.3) -> np.ndarray:
     """Unit approach direction n from the confined space's opening and the target's axes.
@@ -200,7 +214,7 @@ def select_grasp(target: TargetModel, occ: OccupancyMap, task: Task, q_current: 
                  rng: np.random.Generator | None = None, proposer: GraspProposer | None = None,
                  safe_spheres: tuple[np.ndarray, np.ndarray] | None = None,
                  ik: PandaIK | None = None, extra_safe: np.ndarray | None = None,
-                 fine_map: OccupancyMap | None = None) -> GraspSelection:
+                 fine_map: OccupancyMap | None = None, q_via: np.ndarray | None = None) -> GraspSelection:
     """Select a grasp of `target` (Eq. 6) against the map `occ` from q_current (7,) [rad].
 
     spheres: the robot's sphere model with the fingers open (the approach width);
@@ -211,14 +225,18 @@ def select_grasp(target: TargetModel, occ: OccupancyMap, task: Task, q_current: 
     extra_safe: a voxel mask of the map's shape the caller takes as free (e.g. a
     `robot_space.RobotSpaceMask` kept as the robot moved); fine_map: an occupancy map
     `field_upsample` times finer than occ over a box around the target, integrated from the
-    same depth frames (`field.local_fine_map`): the checks near the target use its labels.
-    rng: explicit generator (required).
+    same depth frames (`field.local_fine_map`): the checks near the target use its labels;
+    q_via (7,) [rad]: when the planner finds no path from q_current to a group of feasible
+    pre-grasps, it tries q_current -> q_via -> pre-grasp (e.g. the home posture: a wrist deep
+    in a storey after INSPECT may have no direct way to an approach from the opening), on the
+    same checker. rng: explicit generator (required).
     """
     t0 = time.perf_counter()
     if rng is None:
         raise CompassInputError("select_grasp needs an explicit np.random.Generator (rng)")
     config = config or GraspSelectConfig()
     q_current = check_q(q_current, "q_current")
+    q_via = None if q_via is None else check_q(q_via, "q_via")
     proposer = proposer or AntipodalProposer(config.candidates)
     ik = ik or PandaIK(spheres.kinematics)
     n = desired_approach(target, task)
@@ -338,9 +356,13 @@ def select_grasp(target: TargetModel, occ: OccupancyMap, task: Task, q_current: 
             goals = np.array([qs[1] for _, qs in group])
             res = plan(q_current, goals, chk.plan, config.planner, rng)
             plan_time += res.plan_time_s
+            path = res.path
+            if not res.success and q_via is not None:  # back out to the via posture first, then in
+                res, path = _plan_via(q_current, q_via, goals, chk.plan, config.planner, rng)
+                plan_time += res.plan_time_s
             if res.success:
                 idx, qs = group[res.goal_index]
-                return done(None, idx, qs, res.path)
+                return done(None, idx, qs, path)
             ik_rej[Rejection.NO_PATH] += len(group)
             return None
 

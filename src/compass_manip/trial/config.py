@@ -15,6 +15,7 @@ from ..perception.detector import DETECTORS, DetectorConfig
 from ..sim.grasp_exec import GraspExecConfig
 from ..sim.advance import AdvanceConfig
 from ..sim.keyframes import KeyframeRule
+from .grasp_scan import TrialScanConfig
 from .inspect import InspectConfig
 
 #: Detector kinds a trial may use: the registered image detectors plus the oracle.
@@ -73,7 +74,12 @@ class GraspTrialConfig:
     inspect: the INSPECT views between FOUND and GRASP (`trial.inspect.InspectConfig`;
     n_views=0: off): views chosen for the unknown space the grasp hypotheses need
     (`trial.grasp_views`); grasp_map: GRASP and INSPECT use a 1 cm map of every depth frame
-    (`trial.grasp_map`) instead of the method's (2 cm for the exploration methods)."""
+    (`trial.grasp_map`) instead of the method's (2 cm for the exploration methods); with it,
+    fine_map: the grasp map's frames integrated again at 5 mm within fine_margin [m] of the
+    target's points for the hand's checks (as in the grasp-only harness); scan: the
+    near-field scan before INSPECT (`trial.grasp_scan`, on the grasp map; max_views=0: off);
+    plan_via_home: when no path to the pre-grasps plans directly, the selection tries one via
+    the home posture (`select_grasp(q_via=...)`)."""
 
     enabled: bool = True
     target: TargetConfig = field(default_factory=TargetConfig)
@@ -84,8 +90,14 @@ class GraspTrialConfig:
     near_body_free: bool = True
     inspect: InspectConfig = field(default_factory=InspectConfig)
     grasp_map: bool = False
+    fine_map: bool = True
+    fine_margin: float = 0.2
+    scan: TrialScanConfig = field(default_factory=lambda: TrialScanConfig(max_views=0))
+    plan_via_home: bool = False
 
     def __post_init__(self) -> None:
+        if not 0.02 <= self.fine_margin <= 0.5:
+            raise CompassInputError(f"fine_margin {self.fine_margin} m is not allowed; use 0.02..0.5 m")
         if not 0.0 <= self.moved_margin <= 0.1 or not 1 <= self.max_moved_configs <= 100000:
             raise CompassInputError(f"moved_margin {self.moved_margin} m / max_moved_configs "
                                     f"{self.max_moved_configs} not allowed; use 0..0.1 m and 1..100000")

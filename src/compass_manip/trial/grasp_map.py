@@ -8,32 +8,43 @@ hand was clear at the grasp even with all unknown space taken as free. `GraspMap
 observer that integrates the same depth frames (the robot's own camera; no ground truth) into
 a 1 cm map (`mapping.occupancy.MapConfig()`, the grasp-only harness's) and marks the space the
 arm moved through (`swept`); GRASP selects on it and INSPECT counts its hypotheses' voxels on
-it. `GraspWorld` gives `trial.grasp_views.GraspInspector` this map with the method's own
+it. It also keeps the frames' depth images (no colour) so that GRASP can integrate them again
+at 5 mm around the detected target (`grasp.field.local_fine_map`, as the grasp-only harness
+does; `keep_frames`). `GraspWorld` gives `trial.grasp_views.GraspInspector` this map with the method's own
 validity checker (the views are still planned on the method's map, by its rules)."""
 from __future__ import annotations
 
 import numpy as np
 
+from ..errors import CompassInputError
 from ..exploration.world_model import mark_configs
+from ..grasp.field import local_fine_map
 from ..mapping.observe import integrate_observation
 from ..mapping.occupancy import MapConfig, OccupancyMap, VoxelState
 from ..motion.timing import densify
 from ..robot.spheres import panda_sphere_model
+from ..types import Observation
 from .observer import TrialObserver
 
 
 class GraspMap(TrialObserver):
     """Integrates every frame into `occ` (map_config, default 1 cm) up to max_range [m]; the
     arm's spheres grown by swept_margin [m] along every motion (sampled every sweep_step
-    [rad]) and at the start (grown by start_margin [m]) are its own space (`swept`)."""
+    [rad]) and at the start (grown by start_margin [m]) are its own space (`swept`); with
+    keep_frames every frame's observation (depth, K, pose, q; colour dropped) is kept in
+    `frames`, in order, for `fine_map`."""
 
     def __init__(self, robot, map_config: MapConfig | None = None, max_range: float = 1.5,
-                 swept_margin: float = 0.05, start_margin: float = 0.10, sweep_step: float = 0.05) -> None:
+                 swept_margin: float = 0.05, start_margin: float = 0.10, sweep_step: float = 0.05,
+                 keep_frames: bool = True) -> None:
         self.occ = OccupancyMap(map_config or MapConfig())
+        self.keep_frames = bool(keep_frames)
+        self.frames: list[Observation] = []
         self.spheres = panda_sphere_model(robot)
         self.max_range, self.swept_margin, self.start_margin, self.sweep_step = \
             max_range, swept_margin, start_margin, sweep_step
         self.swept_all = np.zeros(self.occ.shape, bool)
+        self._way: list[np.ndarray] = []
 
     def _mark(self, Q: np.ndarray, margin: float) -> None:
         mark_configs(self.swept_all, self.occ, self.spheres, Q, margin)
@@ -43,14 +54,36 @@ class GraspMap(TrialObserver):
         """(nx,ny,nz) bool: the robot's own space, less voxels seen occupied."""
         return self.swept_all & (self.occ.state != VoxelState.OCCUPIED)
 
+    @property
+    def way(self) -> np.ndarray:
+        """(m, 7) [rad]: the configurations the arm moved through (every sweep_step), in order."""
+        return np.vstack(self._way) if self._way else np.zeros((0, 7))
+
     def start(self, world, method) -> None:
-        self._mark(np.asarray(world.q)[None], self.start_margin)
+        q = np.asarray(world.q, dtype=np.float64)[None]
+        self._mark(q, self.start_margin)
+        self._way.append(q)
 
     def motion(self, trajectory, t_start: float, t_end: float) -> None:
-        self._mark(densify(np.asarray(trajectory.q), self.sweep_step), self.swept_margin)
+        Q = densify(np.asarray(trajectory.q), self.sweep_step)
+        self._mark(Q, self.swept_margin)
+        self._way.append(np.asarray(Q, dtype=np.float64))
 
     def frame(self, frame, method) -> None:
-        integrate_observation(self.occ, frame.observation(), self.spheres, self.max_range)
+        obs = frame.observation()
+        integrate_observation(self.occ, obs, self.spheres, self.max_range)
+        if self.keep_frames:
+            self.frames.append(Observation(obs.depth, None, obs.K, obs.T_world_cam, obs.t, obs.q))
+
+    def fine_map(self, lo: np.ndarray, hi: np.ndarray, upsample: int = 2) -> OccupancyMap:
+        """Every kept frame integrated again into a map `upsample` times finer than occ over
+        the box lo..hi (3,) [m] (`grasp.field.local_fine_map`, aligned with occ's voxels)."""
+        if not self.keep_frames:
+            raise CompassInputError("GraspMap.fine_map needs keep_frames=True (no frames were kept)")
+        fine = local_fine_map(self.occ, lo, hi, upsample)
+        for obs in self.frames:
+            integrate_observation(fine, obs, self.spheres, self.max_range)
+        return fine
 
 
 class GraspWorld:

@@ -14,6 +14,7 @@ compute time) plus the simulated duration of the grasp's motions.
 """
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -69,13 +70,17 @@ class GraspStageResult:
 
 
 def run_grasp_stage(world, occupancy, detection, task, q_current: np.ndarray, moved: list[np.ndarray],
-                    config, rng: np.random.Generator, planning_charge_s: float | None) -> GraspStageResult:
+                    config, rng: np.random.Generator, planning_charge_s: float | None,
+                    grasp_map=None) -> GraspStageResult:
     """Select and execute a grasp of the detected target from q_current (7,) [rad].
 
     occupancy: the method's map; detection: the accepted `perception.detector.Detection`;
     moved: joint paths (m,7) [rad] the robot followed (its own space in the map); config: the
     trial's `GraspTrialConfig`; planning_charge_s: the fixed clock charge of the selection
-    [s], or None to charge its measured compute time."""
+    [s], or None to charge its measured compute time; grasp_map: the trial's
+    `trial.grasp_map.GraspMap` when `occupancy` is its map: with `config.fine_map` its frames
+    are integrated again at 5 mm around the target's points (`fine_margin` [m]) and the
+    hand's checks near the target use that map, as in the grasp-only harness."""
     if rng is None:
         raise CompassInputError("run_grasp_stage needs an explicit np.random.Generator (rng)")
     q_current = np.asarray(q_current, dtype=np.float64)
@@ -92,8 +97,15 @@ def run_grasp_stage(world, occupancy, detection, task, q_current: np.ndarray, mo
         extra &= occupancy.state != VoxelState.OCCUPIED
     if config.near_body_free:
         extra |= near_body_unknown(occupancy, spheres, np.asarray(world.robot.q_home))
-    sel = select_grasp(target, occupancy, task, q_current, spheres, config.select, rng, extra_safe=extra)
-    charge = sel.time_s if planning_charge_s is None else planning_charge_s
+    fine, t_fine = None, 0.0
+    if grasp_map is not None and config.fine_map and grasp_map.frames:
+        t0 = time.perf_counter()
+        fine = grasp_map.fine_map(points.min(0) - config.fine_margin, points.max(0) + config.fine_margin,
+                                  config.select.field_upsample)
+        t_fine = time.perf_counter() - t0
+    sel = select_grasp(target, occupancy, task, q_current, spheres, config.select, rng, extra_safe=extra,
+                       fine_map=fine, q_via=np.asarray(world.robot.q_home) if config.plan_via_home else None)
+    charge = sel.time_s + t_fine if planning_charge_s is None else planning_charge_s
     if sel.failure is not None:
         return GraspStageResult(_SELECT_FAILURE[sel.failure], charge, sel, None, q_current, 0)
     outcome = execute_grasp(world, sel, q_current, config.execute)

@@ -86,16 +86,19 @@ class GraspInspector:
     stage's `grasp.target.TargetConfig` and `grasp.select.GraspSelectConfig`, the
     `InspectConfig` and an explicit generator; near_body: `near_body(occ)` -> voxels the
     grasp stage takes as free (or None). Call with (q_current (7,) [rad], detection) ->
-    InspectPlan."""
+    InspectPlan. more_candidates: `more_candidates(q_current)` -> (m, 7) [rad] further
+    configurations to score (e.g. `trial.grasp_scan.NearFieldScanner.near_way`: next to the
+    way the arm moved, where the method's checker accepts about half of them), or None."""
 
     def __init__(self, wm, K: np.ndarray, task, target_config, select_config, config: InspectConfig,
-                 rng: np.random.Generator, near_body=None) -> None:
+                 rng: np.random.Generator, near_body=None, more_candidates=None) -> None:
         if not isinstance(rng, np.random.Generator):
             raise CompassInputError(f"rng {rng!r:.40} is not allowed; give an explicit np.random.Generator")
         self.wm, self.K, self.task, self.rng = wm, np.asarray(K, dtype=np.float64), task, rng
         self.target_config, self.select_config, self.config = target_config, select_config, config
         self.ik = PandaIK(wm.kin)
         self.near_body = near_body
+        self.more_candidates = more_candidates
         self.last: dict = {}  # what the last step saw (hypotheses, needed voxels, views), for diagnosis
         self.stats: dict = {}
 
@@ -141,7 +144,8 @@ class GraspInspector:
         scale = np.r_[np.full(4, config.sigma), np.full(3, config.wrist_sigma)]
         near = np.clip(q + rng.normal(0.0, 1.0, (config.n_samples, 7)) * scale, Q_MIN + 1e-3, Q_MAX - 1e-3)
         n_ik = len(Q)
-        Q = np.vstack([np.array(Q).reshape(-1, 7), near])
+        Q = np.vstack([np.array(Q).reshape(-1, 7), near] + ([] if self.more_candidates is None
+                                                             else [np.asarray(self.more_candidates(q)).reshape(-1, 7)]))
         Q = Q[np.asarray(wm.checker.are_valid(Q), dtype=bool)]
         if len(Q) == 0:
             return InspectPlan(None, 0, 0, time.perf_counter() - t0)

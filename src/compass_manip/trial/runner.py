@@ -27,6 +27,7 @@ from ..sim.world import World
 from .config import GRASP_ABLATION_METHOD, ORACLE_DETECTOR, TrialConfig
 from .grasp_stage import run_grasp_stage
 from .grasp_map import GraspMap, GraspWorld
+from .grasp_scan import NearFieldScanner
 from .grasp_views import GraspInspector
 from .inspect import plan_inspect_view
 from .machine import MachineOutcome, TrialMachine
@@ -116,6 +117,7 @@ def run_trial_full(spec: TrialSpec, config: TrialConfig | None = None, progress=
     gmap = GraspMap(world.robot) if config.grasp.enabled and config.grasp.grasp_map else None
     grasp_occ = method.occupancy if gmap is None else gmap.occ  # read at GRASP: filled by every frame
     observers = observer if gmap is None else ObserverGroup([gmap] + ([observer] if observer is not None else []))
+    n_inspect = config.grasp.inspect.n_views
     if config.grasp.enabled and config.grasp.inspect.n_views > 0 and own is not None:
         outward = np.asarray(task.space.outward, float)
         insp_rng = np.random.default_rng(np.random.SeedSequence((spec.seed, spec.level, spec.scene, spec.trial, 12)))
@@ -130,16 +132,26 @@ def run_trial_full(spec: TrialSpec, config: TrialConfig | None = None, progress=
             def inspect(q, detection):  # on the method's own map and validity checker
                 return plan_inspect_view(method.world.checker, method.world.kin, method.occupancy, world.camera.K,
                                          detection.points_world, outward, q, config.grasp.inspect, insp_rng)
+    if gmap is not None and config.grasp.scan.max_views > 0 and own is not None:  # near-field scan first
+        scan_rng = np.random.default_rng(np.random.SeedSequence((spec.seed, spec.level, spec.scene, spec.trial, 13)))
+        inspect = NearFieldScanner(lambda: gmap.occ, method.world, world.camera.K,
+                                   (world.camera.width, world.camera.height), world.robot.q_home,
+                                   world.robot.base_pos, config.grasp.scan, scan_rng, then=inspect,
+                                   way_of=lambda: gmap.way)
+        if isinstance(inspect.then, GraspInspector):  # INSPECT scores the way's neighbours too
+            inspect.then.more_candidates = inspect.near_way
+        n_inspect += config.grasp.scan.max_views
     if config.grasp.enabled:
         grasp_rng = np.random.default_rng(np.random.SeedSequence((spec.seed, spec.level, spec.scene, spec.trial, 11)))
         charge = None if config.clock.measured else config.clock.planning_charge_s
 
         def grasp(q, detection, moved):
-            return run_grasp_stage(world, grasp_occ, detection, task, q, moved, config.grasp, grasp_rng, charge)
+            return run_grasp_stage(world, grasp_occ, detection, task, q, moved, config.grasp, grasp_rng, charge,
+                                   grasp_map=gmap)
     try:
         outcome = TrialMachine(world, method, buffer, metrics, config, progress, pass_frames=oracle,
                                grasp=grasp, observer=observers,
-                               inspect=inspect, n_inspect=config.grasp.inspect.n_views).run()
+                               inspect=inspect, n_inspect=n_inspect).run()
     finally:
         buffer.close()
         world.close()

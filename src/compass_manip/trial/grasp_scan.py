@@ -1,0 +1,143 @@
+"""A near-field scan between FOUND and GRASP: look at the space around the robot's body that
+the arm needs on its way into the confined space, so the grasp assumes none of it free.
+
+The grasp's selection takes unknown space as unsafe. The arm configurations of a grasp deep in
+a cabinet put links 2-4 0.2-0.4 m from the base, where a wrist camera that looked into the
+cabinet never looked (diagnosed in docs/grasping.md on the grasp-only harness, whose own
+near-field scan, `sim.near_field`, fixed it there). The trial's grasp stage assumed that
+space free instead (`GraspTrialConfig.near_body_free`). `NearFieldScanner` is the trial's
+version of the harness's scan with nothing from the simulator: the candidates are the
+harness's (`sim.near_field.scan_candidates`: joint 1 turned, joints 2 and 4 bent, the wrist
+anywhere), kept when valid for the method's own checker; each is scored by the unknown
+voxels of the box around the base (`NearFieldScanConfig.box_min/box_max`) its camera sees on
+the grasp's 1 cm map (`mapping.infogain`, the exploration's gain); the shared planner (the
+method's checker) takes the best `n_goals`. A step whose best gain is below `min_gain`, or
+whose plan fails, ends the scan; then the calls go to `then` (the grasp-aware INSPECT). The
+machine executes each plan like an INSPECT view (it counts in MPSR, its frames feed the maps).
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import CompassInputError
+from ..exploration.nfa import safe_box_map
+from ..mapping.infogain import info_gain_batch
+from ..motion.planner import PlannerConfig, plan
+from ..robot.model import Q_MAX, Q_MIN
+from ..sim.near_field import NearFieldScanConfig, scan_candidates
+from .inspect import InspectPlan
+
+
+@dataclass(frozen=True)
+class TrialScanConfig:
+    """max_views scan views at most (0: off); candidates: how they are sampled and scored
+    (`sim.near_field.NearFieldScanConfig`: n_candidates per step, the joint ranges, the box
+    relative to the base, rays, max_range; its max_views is not used); target_margin [m]
+    of the box around the target's points whose unknown voxels count too; way_candidates
+    configurations next to the way moved (joints 1-4 by way_sigma [rad], 5-7 by wrist_sigma
+    [rad], normal); min_gain [voxels]
+    the best view must see to be taken; n_goals best views handed to the planner."""
+
+    max_views: int = 8
+    min_gain: int = 40
+    n_goals: int = 5
+    way_candidates: int = 300
+    way_sigma: float = 0.05
+    wrist_sigma: float = 0.4
+    target_margin: float = 0.2
+    candidates: NearFieldScanConfig = field(default_factory=NearFieldScanConfig)
+    planner: PlannerConfig = field(default_factory=lambda: PlannerConfig(time_budget=1.0))
+
+    def __post_init__(self) -> None:
+        if isinstance(self.max_views, bool) or not isinstance(self.max_views, int) or not 0 <= self.max_views <= 20:
+            raise CompassInputError(f"max_views {self.max_views!r} is not allowed; use an integer 0..20")
+        if self.min_gain < 0 or not 1 <= self.n_goals <= 100 or not 0 <= self.way_candidates <= 10000:
+            raise CompassInputError(f"min_gain {self.min_gain} / n_goals {self.n_goals} / way_candidates "
+                                    f"{self.way_candidates} not allowed; use >= 0, 1..100 and 0..10000")
+        if not 0.0 <= self.target_margin <= 0.5:
+            raise CompassInputError(f"target_margin {self.target_margin} m is not allowed; use 0..0.5 m")
+        if not 0.0 <= self.way_sigma <= 1.0 or not 0.0 <= self.wrist_sigma <= 3.0:
+            raise CompassInputError(f"way_sigma {self.way_sigma} / wrist_sigma {self.wrist_sigma} rad not allowed; "
+                                    "use 0..1 and 0..3")
+
+
+class NearFieldScanner:
+    """The scan (module doc) as an INSPECT step: call with (q_current (7,) [rad], detection)
+    -> `trial.inspect.InspectPlan`. occ_of(): the grasp's map now; wm: the method's world
+    model (checker, kin); K (3,3) and image_size (w, h) of the camera; q_home (7,) [rad];
+    base_pos (3,) [m]; then: the INSPECT step called once the scan has ended (None: stop);
+    way_of(): (m, 7) [rad] configurations the arm moved through (None: none).
+    `views` counts the scan plans returned, `stopped` says why the scan ended."""
+
+    def __init__(self, occ_of, wm, K: np.ndarray, image_size: tuple[int, int], q_home: np.ndarray,
+                 base_pos: np.ndarray, config: TrialScanConfig, rng: np.random.Generator, then=None,
+                 way_of=None) -> None:
+        if not isinstance(rng, np.random.Generator):
+            raise CompassInputError(f"rng {rng!r:.40} is not allowed; give an explicit np.random.Generator")
+        self.occ_of, self.wm, self.then, self.rng, self.config = occ_of, wm, then, rng, config
+        self.way_of = way_of
+        self.K, self.image_size = np.asarray(K, dtype=np.float64), tuple(image_size)
+        self.q_home = np.asarray(q_home, dtype=np.float64)
+        self.base = np.asarray(base_pos, dtype=np.float64)
+        self.views, self.stopped, self.gains = 0, None, []
+        self._scratch = None
+
+    def step(self, q_current: np.ndarray, detection=None) -> InspectPlan | None:
+        """One scan view planned from q_current, or None (the scan is over: `stopped` says why)."""
+        t0 = time.perf_counter()
+        c = self.config.candidates
+        Q = np.vstack([scan_candidates(self.q_home, c.n_candidates, self.rng, c), self.near_way(q_current)])
+        Q = Q[np.asarray(self.wm.checker.are_valid(Q), dtype=bool)]
+        if len(Q) == 0:
+            self.stopped = "no valid candidate"
+            return None
+        occ = self.occ_of()
+        self._scratch = safe_box_map(occ, self.base + c.box_min, self.base + c.box_max, self._scratch)
+        if detection is not None and len(np.asarray(detection.points_world).reshape(-1, 3)):
+            pts = np.asarray(detection.points_world, dtype=np.float64).reshape(-1, 3)
+            lo = np.clip(occ.world_to_voxel((pts.min(0) - self.config.target_margin)[None])[0], 0, occ.shape)
+            hi = np.clip(occ.world_to_voxel((pts.max(0) + self.config.target_margin)[None])[0] + 1, 0, occ.shape)
+            sl = tuple(slice(a, b) for a, b in zip(lo, hi))
+            self._scratch.state[sl] = occ.state[sl]
+        gains = info_gain_batch(self._scratch, self.wm.kin.T_world_cam_batch(Q), self.K, c.max_range, c.rays,
+                                self.image_size)
+        order = np.argsort(-gains, kind="stable")
+        order = order[gains[order] >= self.config.min_gain][: self.config.n_goals]
+        if len(order) == 0:
+            self.stopped = f"best gain {int(gains.max())} < {self.config.min_gain}"
+            return None
+        res = plan(np.asarray(q_current, dtype=np.float64), Q[order], self.wm.checker, self.config.planner, self.rng)
+        if not res.success:
+            self.stopped = "no path"
+            return None
+        gain = int(gains[order[res.goal_index]])
+        self.gains.append(gain)
+        return InspectPlan(res.path, gain, len(Q), time.perf_counter() - t0)
+
+    def near_way(self, q_current: np.ndarray) -> np.ndarray:
+        """(way_candidates, 7) [rad]: configurations next to random ones of the way moved
+        (and q_current), within the joint limits."""
+        n = self.config.way_candidates
+        W = np.asarray(q_current, dtype=np.float64)[None]
+        if self.way_of is not None:
+            W = np.vstack([W, np.asarray(self.way_of(), dtype=np.float64).reshape(-1, 7)])
+        if n == 0:
+            return np.zeros((0, 7))
+        Q = W[self.rng.integers(0, len(W), n)]
+        scale = np.r_[np.full(4, self.config.way_sigma), np.full(3, self.config.wrist_sigma)]
+        return np.clip(Q + self.rng.normal(0.0, 1.0, Q.shape) * scale, Q_MIN + 1e-3, Q_MAX - 1e-3)
+
+    def __call__(self, q_current: np.ndarray, detection) -> InspectPlan:
+        if self.stopped is None and self.views < self.config.max_views:
+            p = self.step(q_current, detection)
+            if p is not None:
+                self.views += 1
+                return p
+        elif self.stopped is None:
+            self.stopped = "max_views"
+        if self.then is None:
+            return InspectPlan(None, 0, 0, 0.0, planned=False)
+        return self.then(q_current, detection)
