@@ -210,3 +210,27 @@ def test_start_shell_claims_only_the_body_margin_inside_the_confined_space(setup
     assert not (wm.swept & box & ~body).any()
     assert wm.swept[shell & ~box].all() and wm.swept[body].all()
     assert wm.checker.is_valid(q0)
+
+
+def test_without_the_near_field_scan_a_stuck_decision_still_backtracks(setup):
+    """compass-no-nfa drops the near-field scan (at the start and as the rescan when stuck)
+    but keeps backtracking along the last executed path."""
+    from dataclasses import replace
+
+    from compass_manip.exploration.base import Decision, StopReason
+
+    config = CompassConfig()
+    m = _method(setup, replace(config, nfa=replace(config.nfa, enabled=False)))
+    assert m.phase is Phase.EXPLORE
+    q0 = m.world.q.copy()
+    d = m.decide()
+    assert d.path is not None
+    m.executed(d.path)
+    stuck = Decision(None, StopReason.NO_REACHABLE_VIEW, Phase.EXPLORE, 0, 0)
+    back = m._rescan(stuck)
+    assert back.stop is None and back.stats.get("backtrack") == 1 and back.stats["rescan_gain"] == 0
+    np.testing.assert_allclose(back.path[-1], q0)
+    np.testing.assert_allclose(back.path, d.path[::-1])
+    # nothing left to go back along: the stop stands
+    m.executed(back.path)
+    assert m._rescan(stuck).stop is StopReason.NO_REACHABLE_VIEW

@@ -141,7 +141,7 @@ class CompassMethod:
                 return _timed(d, t0)
             self.phase = Phase.EXPLORE
         d = self._explore()
-        if d.stop is not None and self.config.nfa.enabled:
+        if d.stop is not None:
             d = self._rescan(d)
         return _timed(d, t0)
 
@@ -150,9 +150,11 @@ class CompassMethod:
         (its views of unknown Omega_safe free space to move in), else back along the last
         executed path (backtracking: the same configurations in reverse, re-checked on the
         map, replayed as they were when the map now puts them within its margin), else the
-        stop."""
-        path, gain, att, ok, self._scratch = nfa_step(self.world, self.world.q, np.asarray(self.task.robot_base_pos),
-                                                      self.config.nfa, self.K, self.rng, self._scratch)
+        stop. Without the near-field scan (`compass-no-nfa`) only the backtracking."""
+        path, gain, att, ok = None, 0, 0, 0
+        if self.config.nfa.enabled:
+            path, gain, att, ok, self._scratch = nfa_step(self.world, self.world.q, np.asarray(self.task.robot_base_pos),
+                                                          self.config.nfa, self.K, self.rng, self._scratch)
         att, ok = att + stuck.plans_attempted, ok + stuck.plans_succeeded
         stats = {**stuck.stats, "rescan_gain": gain}
         if path is None and self.history:
