@@ -36,3 +36,21 @@ def test_cached_mask_equals_colour_mask():
     assert hits > 1000  # the images hold pixels of the colours
     with pytest.raises(CompassInputError, match="colour"):
         cache(images[0], "mauve")
+
+
+def test_white_and_grey_are_told_apart_by_tint_under_any_shading():
+    """A white surface in shade next to a brightly lit grey one: each keeps its name (by
+    brightness the white one, darker here, was called grey)."""
+    config = DetectorConfig()
+    white, grey = np.asarray(COLOURS["white"]), np.asarray(COLOURS["grey"])
+    img = np.zeros((2, 12, 3), np.uint8)
+    for k, s in enumerate(np.linspace(0.15, 1.0, 12)):
+        img[0, k] = np.round(white * s * 255)
+        img[1, k] = np.round(np.minimum(grey * (1.6 - s * 0.5), 1.0) * 255)
+    for colour, row in (("white", 0), ("grey", 1)):
+        m = colour_mask(img, colour, config)
+        assert m[row].all() and not m[1 - row].any(), (colour, m)
+    # the memoised path gives the same masks
+    cache = ColourMaskCache(config)
+    for colour in ("white", "grey"):
+        assert np.array_equal(cache(img, colour), colour_mask(img, colour, config))

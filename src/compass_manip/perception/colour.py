@@ -25,9 +25,8 @@ _UNKNOWN, _NO, _YES = 0, 1, 2
 def colour_mask(rgb: np.ndarray, colour: str, config) -> np.ndarray:
     """(H, W) bool: pixels whose RGB direction is nearest the named colour's among
     `task.COLOURS` and within `config.colour_max_angle_deg` of it, at least
-    `config.min_value` bright (config: a `detector.DetectorConfig`; white and grey, which
-    differ only in brightness, are told apart by brightness relative to the image's
-    brightest achromatic pixels)."""
+    `config.min_value` bright (config: a `detector.DetectorConfig`; white and grey are told
+    apart by `brightness_split`)."""
     mask = colour_direction_mask(rgb, colour, config)
     return brightness_split(mask, rgb, colour)
 
@@ -54,14 +53,36 @@ def colour_direction_mask(rgb: np.ndarray, colour: str, config) -> np.ndarray:
     return same & ang_ok & (val >= config.min_value)
 
 
+def _blue_ratio(rgb) -> np.ndarray:
+    """Blue over the larger of red and green, per pixel (or per reference colour)."""
+    x = np.asarray(rgb, dtype=np.float32)[..., :3]
+    return x[..., 2] / np.maximum(np.maximum(x[..., 0], x[..., 1]), 1e-6)
+
+
+#: white and grey of `task.COLOURS` differ in tint as well as in brightness (white is warm:
+#: blue 0.94 of red, grey neutral); a ratio keeps under shading, brightness does not
+_TINT_WHITE, _TINT_GREY = (float(_blue_ratio(np.asarray(COLOURS[c]))) for c in _ACHROMATIC)
+_TINT_SPLIT = (_TINT_WHITE + _TINT_GREY) / 2
+_MIN_TINT_GAP = 0.03
+
+
 def brightness_split(mask: np.ndarray, rgb: np.ndarray, colour: str) -> np.ndarray:
-    """White and grey, which differ only in brightness, told apart within `mask` by each
-    pixel's brightness relative to the 95th percentile of the mask's (other colours: mask)."""
+    """White and grey told apart within `mask` (other colours: mask). By tint where the
+    palette's white and grey differ in tint by >= 3 % (they do: blue/red 0.94 and 1.0; a
+    pixel is white on white's side of the midpoint): shading keeps a surface's tint but not
+    its brightness, so a shaded white bottle is not grey (measured: a white bottle's pixels
+    0.94-0.95, a grey box's 1.000; by brightness the bottle, the brightest achromatic thing
+    in view, had passed as the grey box on level 1, scene 4, seed 2026). Else by each
+    pixel's brightness relative to the 95th percentile of the mask's."""
     if colour in _ACHROMATIC and mask.any():
-        val = (np.asarray(rgb, dtype=np.float32)[..., :3] / 255.0).max(axis=-1)
-        bright = np.percentile(val[mask], 95)
-        rel = val / max(bright, 1e-6)
-        mask &= (rel >= 0.8) if colour == "white" else (rel < 0.8)
+        if abs(_TINT_GREY - _TINT_WHITE) >= _MIN_TINT_GAP:
+            warm = _blue_ratio(rgb) < _TINT_SPLIT
+            mask &= (warm == (_TINT_WHITE < _TINT_GREY)) if colour == "white" else (warm != (_TINT_WHITE < _TINT_GREY))
+        else:
+            val = (np.asarray(rgb, dtype=np.float32)[..., :3] / 255.0).max(axis=-1)
+            bright = np.percentile(val[mask], 95)
+            rel = val / max(bright, 1e-6)
+            mask &= (rel >= 0.8) if colour == "white" else (rel < 0.8)
     return mask
 
 
