@@ -8,27 +8,8 @@ from compass_manip.exploration.escape import EscapeConfig, escape_path
 from compass_manip.exploration.nfa import reachable_candidates
 from compass_manip.robot.model import Q_HOME
 
+from _ball_checker import BallChecker
 
-class BallChecker:
-    """Configurations within `radius` [rad] (max-norm) of `centre` are invalid."""
-
-    def __init__(self, centre, radius):
-        self.centre, self.radius = np.asarray(centre, float), radius
-
-    def are_valid(self, Q):
-        return np.max(np.abs(np.asarray(Q) - self.centre), axis=-1) > self.radius
-
-    def is_valid(self, q):
-        return bool(self.are_valid(np.asarray(q)[None])[0])
-
-    def clearance(self, q):  # [rad] here, the max-norm distance outside the ball
-        return float(np.max(np.abs(np.asarray(q) - self.centre)) - self.radius)
-
-    def first_invalid(self, q0, q1, resolution):
-        n = max(1, int(np.ceil(np.max(np.abs(q1 - q0)) / resolution)))
-        s = np.arange(n + 1) / n
-        bad = ~self.are_valid(q0 + s[:, None] * (q1 - q0))
-        return float(s[np.argmax(bad)]) if bad.any() else None
 
 
 def test_candidates_are_pulled_back_before_the_first_invalid_state_by_the_backoff():

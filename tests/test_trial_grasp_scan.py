@@ -7,6 +7,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
+from _ball_checker import BallChecker
 from _inspect_fixtures import empty_cabinet_world, observed_view
 
 from compass_manip.errors import CompassInputError
@@ -141,22 +142,6 @@ def test_scan_and_fine_map_configs_reject_bad_values():
         NearFieldScanner(lambda: None, None, np.eye(3), (320, 240), np.zeros(7), np.zeros(3), TrialScanConfig(), None)
 
 
-class _BallChecker:
-    """Configurations within `radius` [rad] (max-norm) of `centre` are invalid."""
-
-    def __init__(self, centre, radius):
-        self.centre, self.radius = np.asarray(centre, float), radius
-
-    def are_valid(self, Q):
-        return np.max(np.abs(np.asarray(Q) - self.centre), axis=-1) > self.radius
-
-    def is_valid(self, q):
-        return bool(self.are_valid(np.asarray(q)[None])[0])
-
-    def edge_valid(self, q0, q1, resolution):
-        n = max(1, int(np.ceil(np.max(np.abs(q1 - q0)) / resolution)))
-        return bool(self.are_valid(q0 + (np.arange(n + 1) / n)[:, None] * (q1 - q0)).all())
-
 
 def test_plan_via_goes_through_the_via_posture_and_fails_when_it_cannot_reach_it():
     from compass_manip.grasp.select import _plan_via
@@ -168,11 +153,11 @@ def test_plan_via_goes_through_the_via_posture_and_fails_when_it_cannot_reach_it
     via[0] += 0.6
     goal[0] -= 0.6
     cfg = PlannerConfig(time_budget=0.5)
-    res, path = _plan_via(q0, via, goal[None], _BallChecker(q0 + 5.0, 0.1), cfg, np.random.default_rng(0))
+    res, path = _plan_via(q0, via, goal[None], BallChecker(q0 + 5.0, 0.1), cfg, np.random.default_rng(0))
     assert res.success and res.goal_index == 0 and res.plan_time_s > 0
     assert np.allclose(path[0], q0) and np.allclose(path[-1], goal)
     assert np.min(np.max(np.abs(path - via), axis=1)) < 1e-9  # the joined path passes the via posture
-    blocked = _BallChecker(via, 0.05)  # the via posture itself is invalid
+    blocked = BallChecker(via, 0.05)  # the via posture itself is invalid
     res, path = _plan_via(q0, via, goal[None], blocked, cfg, np.random.default_rng(0))
     assert not res.success and path is None
 
