@@ -110,3 +110,23 @@ def test_oracle_trial_finds_the_target_on_level_1():
     r = run_trial(TrialSpec("oracle", 1, 0, 0, 0), TrialConfig(grasp=GraspTrialConfig(enabled=False)))  # find-only
     assert r.failure is None and r.true_detection, r
     assert r.decisions >= 1 and r.mpsr is not None and r.mpsr > 0
+
+
+@pytest.mark.parametrize("name", ["fv", "ig", "gse"])
+def test_baselines_escape_a_start_the_map_has_made_invalid(setup, name):
+    """A voxel seen occupied between the fingers makes the start configuration invalid on
+    the map: every baseline's first decision is COMPASS's escape, a short motion to a valid
+    configuration, not a stop."""
+    from compass_manip.mapping.occupancy import VoxelState
+
+    scene, frame, q0, K = setup
+    m = make_method(name, scene.task(), CompassConfig(), np.random.default_rng(0), q0, K)
+    m.observe(frame.observation())
+    tcp = m.world.kin.T_world_tcp(q0)[:3, 3]
+    m.world.occ.set_voxels(m.world.occ.world_to_voxel(tcp[None]), VoxelState.OCCUPIED)
+    m.world._checker = None  # the map changed outside observe()
+    assert not m.world.checker.is_valid(q0)
+    d = m.decide()
+    assert d.stop is None and d.stats.get("escape") == 1
+    np.testing.assert_allclose(d.path[0], q0)
+    assert m.world.checker.is_valid(d.path[-1])

@@ -124,6 +124,9 @@ class FixedViewsMethod(MapMethod):
 
     def decide(self) -> Decision:
         t0 = time.perf_counter()
+        escape = self.escape()
+        if escape is not None:
+            return timed(escape, t0)
         attempted = succeeded = 0
         while True:
             if not self.queue and self.skipped and self.config.retry_skipped and not self.retried:

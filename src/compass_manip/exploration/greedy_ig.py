@@ -113,6 +113,9 @@ class GreedyIGMethod(MapMethod):
 
     def decide(self) -> Decision:
         t0 = time.perf_counter()
+        escape = self.escape()
+        if escape is not None:
+            return timed(escape, t0)
         config = self.config
         for _ in range(config.rounds):
             Q, T, info = self.scored_candidates()

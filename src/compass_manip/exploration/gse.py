@@ -114,6 +114,9 @@ class GSEMethod(MapMethod):
 
     def decide(self) -> Decision:
         t0 = time.perf_counter()
+        escape = self.escape()
+        if escape is not None:
+            return timed(escape, t0)
         d = self._local()
         if d is None:
             d = self._global()
