@@ -23,8 +23,8 @@ from ..robot.ik import PandaIK
 from ..robot.model import RobotConfig
 from ..task import Task
 from ..types import Observation
-from .base import Decision, Phase
-from .escape import EscapeConfig, escape_path
+from .base import Decision
+from .escape import EscapeConfig, escape_decision
 from .nfa import safe_box_map
 from .world_model import WorldModel, WorldModelConfig
 
@@ -69,11 +69,7 @@ class MapMethod:
         """COMPASS's escape (`escape.py`), shared so that no baseline is weaker in it: when
         a new frame has made the current configuration invalid on the map (a face frame
         seen just beside the hand at the start), a short motion out of it; else None."""
-        checker = self.world.checker
-        if checker.is_valid(self.world.q):
-            return None
-        path = escape_path(checker, self.world.q, EscapeConfig(), self.rng)
-        return None if path is None else Decision(path, None, Phase.EXPLORE, 1, 1, stats={"escape": 1})
+        return escape_decision(self.world.checker, self.world.q, EscapeConfig(), self.rng)
 
     def roi_map(self, margin: float) -> OccupancyMap:
         """The map restricted to the confined space's interior grown by margin [m] (reused)."""

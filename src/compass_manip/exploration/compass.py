@@ -17,7 +17,7 @@ from ..robot.model import RobotConfig
 from ..task import Task
 from ..types import Observation
 from .base import Decision, Phase, StopReason
-from .escape import EscapeConfig, escape_path
+from .escape import EscapeConfig, escape_decision
 from .mue_rrt import TreeConfig, UtilityWeights, grow_tree, score_tree, validated_path
 from .nfa import NFAConfig, nfa_step, safe_box_map
 from .world_model import WorldModel, WorldModelConfig
@@ -131,10 +131,9 @@ class CompassMethod:
         t0 = time.perf_counter()
         self.world.checker  # rebuild the distance field / validity checker on the new map
         self._checker_ms = 1000 * (time.perf_counter() - t0)
-        if not self.world.checker.is_valid(self.world.q):
-            path = escape_path(self.world.checker, self.world.q, self.config.escape, self.rng)
-            if path is not None:
-                return _timed(Decision(path, None, self.phase, 1, 1, stats={"escape": 1}), t0)
+        escape = escape_decision(self.world.checker, self.world.q, self.config.escape, self.rng, self.phase)
+        if escape is not None:
+            return _timed(escape, t0)
         if self.phase is Phase.NFA:
             d = self._nfa()
             if d is not None:

@@ -16,6 +16,7 @@ import numpy as np
 
 from ..errors import CompassInputError
 from ..robot.model import Q_MAX, Q_MIN
+from .base import Decision, Phase
 
 
 @dataclass(frozen=True)
@@ -108,3 +109,15 @@ def escape_path(checker, q: np.ndarray, config: EscapeConfig, rng: np.random.Gen
         if valid_after_start(checker, np.stack([q, qc]), config.tolerance, config.resolution, config.max_approach):
             return np.stack([q, qc])
     return None
+
+
+def escape_decision(checker, q: np.ndarray, config: EscapeConfig, rng: np.random.Generator,
+                    phase: Phase = Phase.EXPLORE) -> Decision | None:
+    """The decision every method takes first: if q is invalid on the map (a new frame saw
+    an obstacle within the checker's margin of it), the escape motion out of it (one
+    attempted and succeeded plan, stats {"escape": 1}); None when q is valid or no escape
+    is found."""
+    if checker.is_valid(q):
+        return None
+    path = escape_path(checker, q, config, rng)
+    return None if path is None else Decision(path, None, phase, 1, 1, stats={"escape": 1})
