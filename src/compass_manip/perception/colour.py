@@ -2,11 +2,11 @@
 per RGB value.
 
 The colour test of a pixel (its RGB direction against every named colour, before the
-white / grey brightness split) depends on that pixel's own 8-bit RGB value only. A camera
+white / grey split by tint) depends on that pixel's own 8-bit RGB value only. A camera
 moving through one scene sees mostly the same few thousand values frame after frame, so the
 cache keeps the per-value answers in a table of 2^24 entries per colour (16 MB) and each
-frame computes only the values it has not met before; the brightness split, which depends
-on the whole image, runs on every frame (tests/test_perception_colour.py checks the
+frame computes only the values it has not met before; the white / grey split runs on every
+frame (tests/test_perception_colour.py checks the
 cache's masks against `colour_mask`).
 """
 from __future__ import annotations
@@ -26,13 +26,13 @@ def colour_mask(rgb: np.ndarray, colour: str, config) -> np.ndarray:
     """(H, W) bool: pixels whose RGB direction is nearest the named colour's among
     `task.COLOURS` and within `config.colour_max_angle_deg` of it, at least
     `config.min_value` bright (config: a `detector.DetectorConfig`; white and grey are told
-    apart by `brightness_split`)."""
+    apart by `white_grey_split`)."""
     mask = colour_direction_mask(rgb, colour, config)
-    return brightness_split(mask, rgb, colour)
+    return white_grey_split(mask, rgb, colour)
 
 
 def colour_direction_mask(rgb: np.ndarray, colour: str, config) -> np.ndarray:
-    """`colour_mask` before the white / grey brightness split: a function of each pixel's
+    """`colour_mask` before the white / grey split: a function of each pixel's
     own RGB value only (so it can be cached per value, `ColourMaskCache`)."""
     if colour not in COLOURS:
         raise CompassInputError(f"colour {colour!r} is not one of {tuple(COLOURS)}")
@@ -63,28 +63,20 @@ def _blue_ratio(rgb) -> np.ndarray:
 #: blue 0.94 of red, grey neutral); a ratio keeps under shading, brightness does not
 _TINT_WHITE, _TINT_GREY = (float(_blue_ratio(np.asarray(COLOURS[c]))) for c in _ACHROMATIC)
 _TINT_SPLIT = (_TINT_WHITE + _TINT_GREY) / 2
-_MIN_TINT_GAP = 0.03
+assert _TINT_WHITE < _TINT_GREY - 0.03, "the palette's white must be warmer than its grey"
 
 
-def brightness_split(mask: np.ndarray, rgb: np.ndarray, colour: str) -> np.ndarray:
-    """White and grey told apart within `mask` (other colours: mask). By tint where the
-    palette's white and grey differ in tint by >= 3 % (they do: blue/red 0.94 and 1.0; a
-    pixel is white on white's side of the midpoint): shading keeps a surface's tint but not
-    its brightness, so a shaded white bottle is not grey (measured: a white bottle's pixels
-    0.94-0.95, a grey box's 1.000; by brightness the bottle, the brightest achromatic thing
-    in view, had passed as the grey box on level 1, scene 4, seed 2026). Else by each
-    pixel's brightness relative to the 95th percentile of the mask's."""
+def white_grey_split(mask: np.ndarray, rgb: np.ndarray, colour: str) -> np.ndarray:
+    """White and grey told apart within `mask` by tint (other colours: mask): a pixel is
+    white on white's side of the midpoint between the palette's blue/red ratios (0.94 and
+    1.0). Shading keeps a surface's tint but not its brightness, so a shaded white bottle is
+    not grey (measured: a white bottle's pixels 0.94-0.95, a grey box's 1.000; split by
+    brightness relative to the image, the bottle, the brightest achromatic thing in view,
+    had passed as the grey box on level 1, scene 4, seed 2026)."""
     if colour in _ACHROMATIC and mask.any():
-        if abs(_TINT_GREY - _TINT_WHITE) >= _MIN_TINT_GAP:
-            warm = _blue_ratio(rgb) < _TINT_SPLIT
-            mask &= (warm == (_TINT_WHITE < _TINT_GREY)) if colour == "white" else (warm != (_TINT_WHITE < _TINT_GREY))
-        else:
-            val = (np.asarray(rgb, dtype=np.float32)[..., :3] / 255.0).max(axis=-1)
-            bright = np.percentile(val[mask], 95)
-            rel = val / max(bright, 1e-6)
-            mask &= (rel >= 0.8) if colour == "white" else (rel < 0.8)
+        warm = _blue_ratio(rgb) < _TINT_SPLIT
+        mask &= warm if colour == "white" else ~warm
     return mask
-
 
 
 class ColourMaskCache:
@@ -112,4 +104,4 @@ class ColourMaskCache:
             ok = colour_direction_mask(values[:, None, :], colour, self.config)[:, 0]
             table[new] = np.where(ok, _YES, _NO)
             state = table[key]
-        return brightness_split(state == _YES, rgb[..., :3], colour)
+        return white_grey_split(state == _YES, rgb[..., :3], colour)
