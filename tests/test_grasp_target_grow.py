@@ -47,3 +47,60 @@ def test_a_board_touching_the_top_is_capped_at_the_querys_height():
     q = TargetQuery("box", "red", (0.06, 0.06, 0.12))
     m = build_target_model(pts, np.array([-0.3, 0.0, 0.3]), q, occ)
     assert m.points[:, 2].max() <= 0.10 + 0.12 + 0.01 + 1e-9
+
+
+def test_an_unknown_band_is_passed_over_but_a_free_layer_ends_the_growth():
+    neck = ((0.19, -0.01, 0.24), (0.21, 0.01, 0.285))  # the neck's voxels seen above a hidden band
+    occ = _map_with([neck])
+    a = occ.world_to_voxel(np.array([[0.0, -0.2, 0.205]]))[0]
+    b = occ.world_to_voxel(np.array([[0.4, 0.2, 0.235]]))[0]
+    occ.state[a[0]:b[0] + 1, a[1]:b[1] + 1, a[2]:b[2] + 1] = VoxelState.UNKNOWN  # the shoulder, never seen
+    pts = _body_points()
+    lo, hi = pts.min(0) - 0.01, pts.max(0) + 0.01
+    assert 0.28 <= grow_top(occ, lo, hi, z_max=0.5, shrink=0.01) < 0.30  # over the band to the neck's top
+    k = occ.world_to_voxel(np.array([[0.2, 0.0, 0.225]]))[0][2]
+    front = occ.world_to_voxel(np.array([[0.175, 0.0, 0.225]]))[0][0]
+    occ.state[a[0]:front + 1, a[1]:b[1] + 1, k] = VoxelState.FREE  # in front of the neck, seen free
+    assert 0.28 <= grow_top(occ, lo, hi, z_max=0.5, shrink=0.01) < 0.30  # the neck's column is still unknown
+    occ.state[a[0]:b[0] + 1, a[1]:b[1] + 1, k] = VoxelState.FREE  # the whole layer of the band seen free
+    assert grow_top(occ, lo, hi, z_max=0.5, shrink=0.01) < 0.225  # the neck is something else
+
+
+def test_the_layer_holding_the_box_top_counts_by_its_centre():
+    """hi[2] inside a layer whose centre lies above it: that layer's occupied voxels are
+    not yet in the region (`map_points_in_region` takes centres), so growth must test it."""
+    cap = ((0.19, -0.01, 0.20), (0.21, 0.01, 0.219))  # the top 2 cm of the body, seen only in the map
+    occ = OccupancyMap(MapConfig(box_min=(0.0, -0.2, 0.0), box_max=(0.4, 0.2, 0.6), resolution=0.02))
+    occ.state[...] = VoxelState.FREE
+    a, b = occ.world_to_voxel(np.asarray(cap[0])[None])[0], occ.world_to_voxel(np.asarray(cap[1])[None])[0]
+    occ.state[a[0]:b[0] + 1, a[1]:b[1] + 1, a[2]:b[2] + 1] = VoxelState.OCCUPIED  # layer 0.20..0.22, centre 0.21
+    pts = _body_points()
+    pts = pts[pts[:, 2] <= 0.195]
+    lo, hi = pts.min(0) - 0.01, pts.max(0) + 0.01  # hi[2] = 0.205: inside that layer, below its centre
+    assert grow_top(occ, lo, hi, z_max=0.5) >= 0.22 - 1e-9
+
+
+def _arc(cx, radius, z0, z1):
+    """The seen (-x) half of a vertical cylinder around (cx, 0) between z0 and z1 [m]."""
+    a, z = np.meshgrid(np.linspace(0.5 * np.pi, 1.5 * np.pi, 25), np.arange(z0, z1, 0.004))
+    return np.c_[cx + radius * np.cos(a.ravel()), radius * np.sin(a.ravel()), z.ravel()]
+
+
+def test_a_bottle_seen_only_by_its_neck_is_mirrored_through_the_necks_axis():
+    neck = _arc(0.20, 0.013, 0.30, 0.38)  # the body (3 cm radius, same axis) hidden below
+    q = TargetQuery("bottle", "green", (0.06, 0.06, 0.22))
+    cam = np.array([-0.3, 0.0, 0.5])
+    m = build_target_model(neck, cam, q)
+    assert m.points[:, 0].max() < 0.20 + 0.013 + 0.005  # the far side of the neck, not 6 cm deep
+    box = build_target_model(neck, cam, TargetQuery("box", "green", (0.06, 0.06, 0.22)))
+    assert box.points[:, 0].max() > 0.20 + 0.03  # a box keeps the query's depth
+    off = build_target_model(neck, cam, q, config=TargetConfig(round_axis=False))
+    assert off.points[:, 0].max() > 0.20 + 0.03
+
+
+def test_a_bottle_seen_whole_keeps_the_bodys_axis_for_its_neck():
+    pts = np.vstack([_arc(0.20, 0.03, 0.10, 0.25), _arc(0.20, 0.013, 0.25, 0.33)])
+    m = build_target_model(pts, np.array([-0.3, 0.0, 0.4]), TargetQuery("bottle", "red", (0.06, 0.06, 0.23)))
+    body = m.points[~m.observed & (m.points[:, 2] < 0.24)]
+    neck = m.points[~m.observed & (m.points[:, 2] > 0.26)]
+    assert abs(body[:, 0].max() - 0.23) < 0.006 and abs(neck[:, 0].max() - 0.213) < 0.006

@@ -33,7 +33,9 @@ class TargetConfig:
     the lowest point plus the query's height (+ fuse_margin): a detector's mask may miss a
     thin top part (a bottle's neck: on trial (1, 1) of seed 303 the detection ended 3.7 cm
     below the true top), and the part's voxels then blocked every hand as an obstacle; the
-    first layer without an occupied voxel ends the growth, so a board above a gap stays out."""
+    first layer without an occupied voxel ends the growth, so a board above a gap stays out;
+    round_axis: a round target (`ROUND_SHAPES`, by the query) is mirrored through its own
+    axis, found from its widest seen horizontal slice of `slice` [m] (`round_plane`)."""
 
     voxel: float = 0.004
     normal_k: int = 10
@@ -41,12 +43,16 @@ class TargetConfig:
     fuse_margin: float = 0.01
     mirror: bool = True
     grow_up: bool = True
+    round_axis: bool = True
+    slice: float = 0.01
 
     def __post_init__(self) -> None:
         if not 0.0005 <= self.voxel <= 0.05:
             raise CompassInputError(f"TargetConfig.voxel = {self.voxel} m is not allowed; use 0.0005..0.05 m")
         if not 4 <= self.normal_k <= 100:
             raise CompassInputError(f"TargetConfig.normal_k = {self.normal_k} is not allowed; use 4..100")
+        if not 0.002 <= self.slice <= 0.1:
+            raise CompassInputError(f"TargetConfig.slice = {self.slice} m is not allowed; use 0.002..0.1 m")
         if not 0.0 <= self.fuse_margin <= 0.1:
             raise CompassInputError(f"TargetConfig.fuse_margin = {self.fuse_margin} m is not allowed; use 0..0.1 m")
 
@@ -132,22 +138,59 @@ def map_points_in_region(occ: OccupancyMap, lo: np.ndarray, hi: np.ndarray) -> n
     return pts[np.all((pts >= lo) & (pts <= hi), axis=1)]
 
 
-def grow_top(occ: OccupancyMap, lo: np.ndarray, hi: np.ndarray, z_max: float) -> float:
+def grow_top(occ: OccupancyMap, lo: np.ndarray, hi: np.ndarray, z_max: float, shrink: float = 0.0) -> float:
     """The box lo..hi (3,) [m] grown upwards one map layer at a time while the next layer holds
     an occupied voxel (centre) within the box's x-y footprint, never above z_max [m]; the new
-    top z [m] (hi[2] when nothing grows)."""
+    top z [m] (hi[2] when nothing grows). A layer without an occupied voxel ends the growth
+    only when its core (the footprint shrunk by `shrink` [m]: the points' own x-y box) is
+    all seen free; one with unknown voxels there is passed over (the top is raised only by
+    the occupied layers above it): an occluder in front can hide a band of the target from
+    every view (a bottle's shoulder on trial (3, 1) of seed 101: two unknown layers between
+    its detected body and its neck's occupied voxels, the space in front of the neck seen
+    free)."""
     top = float(hi[2])
-    i0 = np.clip(occ.world_to_voxel(np.asarray(lo)[None])[0], 0, np.array(occ.shape) - 1)
-    i1 = np.clip(occ.world_to_voxel(np.asarray(hi)[None])[0], 0, np.array(occ.shape) - 1)
-    k = int(i1[2])
+    shape = np.array(occ.shape) - 1
+    i0 = np.clip(occ.world_to_voxel(np.asarray(lo)[None])[0], 0, shape)
+    i1 = np.clip(occ.world_to_voxel(np.asarray(hi)[None])[0], 0, shape)
+    c0 = np.clip(occ.world_to_voxel((np.asarray(lo) + shrink)[None])[0], i0, i1)
+    c1 = np.clip(occ.world_to_voxel((np.asarray(hi) - shrink)[None])[0], c0, i1)
+    # the first layer to test is the lowest whose centre lies above the box: the layer
+    # holding hi[2] counts as inside only when its centre does (`map_points_in_region`
+    # takes voxel centres), else its occupied voxels - a bottle's top 1.3 cm above the
+    # detection - would stay outside the model and block the hands as an obstacle
+    k = int(i1[2]) - (1 if occ.grid_min[2] + (int(i1[2]) + 0.5) * occ.resolution > top else 0)
     while True:
         k += 1
         zc = occ.grid_min[2] + (k + 0.5) * occ.resolution
         if k >= occ.shape[2] or zc > z_max:
             return top
-        if not np.any(occ.state[i0[0]:i1[0] + 1, i0[1]:i1[1] + 1, k] == VoxelState.OCCUPIED):
+        if np.any(occ.state[i0[0]:i1[0] + 1, i0[1]:i1[1] + 1, k] == VoxelState.OCCUPIED):
+            top = min(zc + 0.5 * occ.resolution, z_max)
+        elif np.all(occ.state[c0[0]:c1[0] + 1, c0[1]:c1[1] + 1, k] == VoxelState.FREE):
             return top
-        top = min(zc + 0.5 * occ.resolution, z_max)
+
+
+#: Shape classes whose horizontal cross-sections are round (`round_plane`).
+ROUND_SHAPES = ("can", "bottle", "cylinder")
+
+
+def round_plane(pts: np.ndarray, view: np.ndarray, along: np.ndarray, slice_m: float) -> float | None:
+    """For a target with round horizontal cross-sections on one vertical axis (a can, a
+    bottle with its neck): the depth along `view` of that axis, from the horizontal slice
+    (slice_m [m] thick) seen widest across the view: its front plus half its width. None
+    when no slice is seen at least 1 cm wide. A bottle whose body hides behind an occluder
+    is then mirrored through its neck's axis, not through a plane half the body's width
+    behind the neck's front (a 2.6 cm neck modelled 6 cm deep)."""
+    side = np.array([-view[1], view[0], 0.0])
+    across = pts @ side
+    k = np.floor(pts[:, 2] / slice_m).astype(np.int64)
+    best_w, best = 0.0, None
+    for b in np.unique(k):
+        m = k == b
+        w = float(across[m].max() - across[m].min())
+        if w > best_w + 1e-9:
+            best_w, best = w, float(along[m].min()) + 0.5 * w
+    return best if best_w >= 0.01 else None
 
 
 def build_target_model(points: np.ndarray, camera_origin: np.ndarray, query: TargetQuery | None = None,
@@ -167,7 +210,8 @@ def build_target_model(points: np.ndarray, camera_origin: np.ndarray, query: Tar
         lo, hi = pts.min(0) - config.fuse_margin, pts.max(0) + config.fuse_margin
         lo[2] = pts[:, 2].min() + 0.5 * occ.resolution  # never the support below
         if query is not None and config.grow_up:
-            hi[2] = grow_top(occ, lo, hi, pts[:, 2].min() + float(query.size[2]) + config.fuse_margin)
+            hi[2] = grow_top(occ, lo, hi, pts[:, 2].min() + float(query.size[2]) + config.fuse_margin,
+                             config.fuse_margin)
         extra = map_points_in_region(occ, lo, hi)
         if len(extra):
             pts = np.vstack([pts, extra])
@@ -185,6 +229,10 @@ def build_target_model(points: np.ndarray, camera_origin: np.ndarray, query: Tar
     if query is not None:
         depth = max(depth, float(min(query.size[:2])))
     plane = front + 0.5 * depth
+    if query is not None and query.shape in ROUND_SHAPES and config.round_axis:
+        axis = round_plane(pts, view, along, config.slice)
+        if axis is not None:  # its own axis, never in front of what was seen
+            plane = max(axis, front + 0.5 * float(along.max() - front))
     centre = pts.mean(0)
     centre += (plane - centre @ view) * view
     normals = pca_normals(pts, config.normal_k)
