@@ -46,7 +46,8 @@ def test_grasp_stage_checks_the_hand_on_the_fine_map_of_the_grasp_maps_frames(mo
         det = SimpleNamespace(points_world=oracle_detection(world, view), T_world_cam=view.T_world_cam)
         seen = []
 
-        def fake_select(target, occ, task_, q, spheres, config, rng, extra_safe=None, fine_map=None, q_via=None):
+        def fake_select(target, occ, task_, q, spheres, config, rng, extra_safe=None, fine_map=None, q_via=None,
+                        proposer=None):
             seen.append((occ, fine_map, q_via))
             return GraspSelection(None, 0.0, 0.0, None, None, None, None, float("nan"), False, 0.0, np.zeros(3), 0,
                                   {}, 0.25, 0.0, GraspFailure.NO_APPROACH_PATH)

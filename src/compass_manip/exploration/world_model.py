@@ -164,6 +164,22 @@ def mark_configs(mask: np.ndarray, occ: OccupancyMap, spheres, Q: np.ndarray, ma
     mark_spheres(mask, occ.grid_min, occ.resolution, c, np.tile(spheres.radii + margin, len(Q)))
 
 
+def assumed_free_mask(occ: OccupancyMap, task, config: WorldModelConfig) -> np.ndarray:
+    """(nx, ny, nz) bool: the unknown space a method with `config` takes as free on occ's grid:
+    outside the confined space's box (`outside_space_mask`) unless `near_base_box` holds it;
+    nothing without a task or with `assume_free_outside_space` off."""
+    if task is None or not config.assume_free_outside_space:
+        return np.zeros(occ.shape, bool)
+    out = outside_space_mask(occ, task, config.space_margin, config.floor_margin)
+    if config.near_base_box is not None:
+        base = np.asarray(task.robot_base_pos, float)
+        lo = base + np.asarray(config.near_base_box[0])
+        hi = base + np.asarray(config.near_base_box[1])
+        c = occ.voxel_centers()
+        out &= ~np.all((c >= lo) & (c <= hi), axis=-1)
+    return out
+
+
 def method_safe_voxels(occ: OccupancyMap, swept: np.ndarray, assumed_free: np.ndarray, obstacle_halo: float
                        ) -> np.ndarray:
     """(nx, ny, nz) bool: the voxels a method's validity checker takes as safe besides free
@@ -200,15 +216,7 @@ class WorldModel:
         self._base_checker: ValidityChecker | None = None
         self._field: CappedDistance | None = None  # the distance field, updated where the map changed
         self._frontiers: tuple[FrontierCluster, ...] | None = None
-        self.assumed_free = np.zeros(self.occ.shape, bool)
-        if task is not None and self.config.assume_free_outside_space:
-            self.assumed_free = outside_space_mask(self.occ, task, self.config.space_margin, self.config.floor_margin)
-            if self.config.near_base_box is not None:
-                base = np.asarray(task.robot_base_pos, float)
-                lo = base + np.asarray(self.config.near_base_box[0])
-                hi = base + np.asarray(self.config.near_base_box[1])
-                c = self.occ.voxel_centers()
-                self.assumed_free &= ~np.all((c >= lo) & (c <= hi), axis=-1)
+        self.assumed_free = assumed_free_mask(self.occ, task, self.config)
         self._mark_start_shell(task)
 
     def _mark_start_shell(self, task) -> None:

@@ -106,6 +106,15 @@ class GraspCandidates:
         z = np.zeros((0, 3))
         return cls(np.zeros((0, 4, 4)), np.zeros(0), np.zeros(0), z, z, z, z)
 
+    @classmethod
+    def concat(cls, parts) -> "GraspCandidates":
+        """The candidates of every GraspCandidates in `parts`, in order."""
+        parts = [p for p in parts if len(p)]
+        if not parts:
+            return cls.empty()
+        names = ("T_world_tcp", "width", "score", "p1", "p2", "n1", "n2")
+        return cls(*(np.concatenate([getattr(p, n) for p in parts]) for n in names))
+
 
 class GraspProposer(Protocol):
     """The plug-in point for a learned grasp network (GraspNet, Contact-GraspNet, ...):
@@ -126,6 +135,22 @@ def propose_in_cone(proposer: GraspProposer, target: TargetModel, rng: np.random
     if "toward" in inspect.signature(proposer.propose).parameters:
         return proposer.propose(target, rng, toward=toward, max_angle=max_angle)
     return proposer.propose(target, rng)
+
+
+class PinnedProposer:
+    """A proposer whose candidates start with `pinned` (GraspCandidates kept from earlier
+    calls, e.g. the grasp hypotheses INSPECT looked for) followed by `base`'s own: a grasp
+    whose way in was made visible is then always among those checked, whatever the base
+    proposer draws this time."""
+
+    def __init__(self, base: GraspProposer, pinned: GraspCandidates):
+        self.base, self.pinned = base, pinned
+
+    def propose(self, target: TargetModel, rng: np.random.Generator,
+                toward: np.ndarray | None = None, max_angle: float | None = None) -> GraspCandidates:
+        fresh = propose_in_cone(self.base, target, rng, toward, max_angle) if toward is not None \
+            else self.base.propose(target, rng)
+        return GraspCandidates.concat([self.pinned, fresh])
 
 
 class AntipodalProposer:

@@ -24,7 +24,7 @@ from ..mapping.occupancy import OccupancyMap, VoxelState
 from ..robot.ik import PandaIK
 from ..robot.spheres import SphereModel
 from ..task import Task
-from .candidates import AntipodalProposer, GraspProposer, propose_in_cone
+from .candidates import AntipodalProposer, GraspCandidates, GraspProposer, propose_in_cone
 from .carve import grasp_unsafe
 from .checks import GraspChecks, first_clear, hand_clear, lift_steps, pregrasp_steps, rigid_hand_spheres
 from .select import approach_angles, desired_approach
@@ -59,7 +59,8 @@ class HypothesisConfig:
 @dataclass(frozen=True, eq=False)
 class GraspHypothesis:
     """A grasp feasible with unknown space free: T_world_tcp (4,4), score s, q_grasp /
-    q_pregrasp / q_lift (7,) [rad], pregrasp_distance / lift_height [m]."""
+    q_pregrasp / q_lift (7,) [rad], pregrasp_distance / lift_height [m]; candidate: its row of the
+    proposer's `GraspCandidates` (contacts, width), so a later selection can check it again."""
 
     T_world_tcp: np.ndarray
     score: float
@@ -68,6 +69,7 @@ class GraspHypothesis:
     q_lift: np.ndarray
     pregrasp_distance: float
     lift_height: float
+    candidate: GraspCandidates | None = None
 
     def motion(self, n_interp: int) -> np.ndarray:
         """(2 n_interp + 1, 7) [rad]: pre-grasp -> grasp -> lift, straight in joint space."""
@@ -90,12 +92,14 @@ def grasp_hypotheses(target: TargetModel, occ: OccupancyMap, task: Task, q_curre
                      spheres: SphereModel, select_config, config: HypothesisConfig, rng: np.random.Generator,
                      safe_spheres: tuple[np.ndarray, np.ndarray], extra_safe: np.ndarray | None = None,
                      ik: PandaIK | None = None, proposer: GraspProposer | None = None,
-                     stats: dict | None = None) -> list[GraspHypothesis]:
+                     stats: dict | None = None, fine_map: OccupancyMap | None = None) -> list[GraspHypothesis]:
     """The best grasps (by score, then the higher grasp point) that pass the selection's
     checks with unknown space taken as free (module doc). select_config: the
     `select.GraspSelectConfig` whose cone, pre-grasp distances and lift heights apply;
     stats: if a dict, filled with the count of candidates dropped per check (the names of
-    `select.Rejection`, with unknown space free)."""
+    `select.Rejection`, with unknown space free); fine_map: the selection's fine local map
+    (`select_grasp(fine_map=...)`), so the hypotheses are checked as the selection will check
+    them."""
     stats = {} if stats is None else stats
     if rng is None:
         raise CompassInputError("grasp_hypotheses needs an explicit np.random.Generator (rng)")
@@ -105,7 +109,8 @@ def grasp_hypotheses(target: TargetModel, occ: OccupancyMap, task: Task, q_curre
     optimistic = occ.state == VoxelState.UNKNOWN
     if extra_safe is not None:
         optimistic = optimistic | np.asarray(extra_safe, dtype=bool)
-    checks = GraspChecks(occ, target, spheres, ik, select_config, safe_spheres, optimistic, q_current)
+    checks = GraspChecks(occ, target, spheres, ik, select_config, safe_spheres, optimistic, q_current,
+                         fine_map=fine_map)
     n = desired_approach(target, task)
     cands = propose_in_cone(proposer, target, rng, n, select_config.max_approach_angle)
     if len(cands) == 0:
@@ -134,7 +139,7 @@ def grasp_hypotheses(target: TargetModel, occ: OccupancyMap, task: Task, q_curre
             stats[why] = stats.get(why, 0) + 1
         elif not _near_one(cands.T_world_tcp[i], out, config):
             out.append(GraspHypothesis(cands.T_world_tcp[i].copy(), float(cands.score[i]), *map(np.asarray, qs),
-                                       float(pre[k]), float(lift[k])))
+                                       float(pre[k]), float(lift[k]), cands.take([i])))
             if len(out) >= config.n_hypotheses:
                 break
     return out

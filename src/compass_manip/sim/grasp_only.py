@@ -23,6 +23,7 @@ from ..exploration.wrist_sweep import wrist_sweep
 from ..geometry import look_at, make_T, rot_z
 from ..grasp.field import local_fine_map
 from ..grasp.robot_space import RobotSpaceMask
+from ..grasp.candidates import AntipodalProposer, PinnedProposer
 from ..grasp.select import GraspSelectConfig, GraspSelection, select_grasp
 from ..grasp.target import TargetModel, backproject, build_target_model, TargetConfig
 from ..mapping.observe import integrate_observation
@@ -293,7 +294,7 @@ def run_grasp_only(scene: SceneSpec, config: GraspOnlyConfig | None = None, seed
         if len(points) < 10:
             return GraspOnlyResult(q_view, vis, len(points), None, None, None, map_time)
         task = scene.task()
-        q_sel, n_insp = q_view, 0
+        q_sel, n_insp, proposer = q_view, 0, None
         if config.inspect.n_views > 0:  # the trial's grasp-aware INSPECT, on this map
             model = HarnessModel(occ, spheres, world.robot, task)
             model.add_swept(np.asarray(moved))
@@ -306,6 +307,8 @@ def run_grasp_only(scene: SceneSpec, config: GraspOnlyConfig | None = None, seed
                 return GraspOnlyResult(q_view, vis, len(points), None, None, None, map_time, way.time_s, 0.0,
                                        insp.n_views, tuple(f"{c.robot_geom}->{c.other_geom}" for c in insp.contacts))
             q_sel, n_insp = insp.q_end, insp.n_views
+            if len(inspector.pinned):  # the hypotheses INSPECT looked for are checked first
+                proposer = PinnedProposer(AntipodalProposer(config.select.candidates), inspector.pinned)
             for p in insp.paths:
                 went(densify(np.asarray(p), 0.05))
             frames += list(insp.frames)
@@ -321,7 +324,8 @@ def run_grasp_only(scene: SceneSpec, config: GraspOnlyConfig | None = None, seed
             for f in frames:
                 integrate_observation(fine, f, spheres, world.camera.depth_max)
             fine_time = time.perf_counter() - t1
-        sel = select_grasp(target, occ, task, q_sel, spheres, config.select, rng, extra_safe=extra, fine_map=fine)
+        sel = select_grasp(target, occ, task, q_sel, spheres, config.select, rng, proposer=proposer, extra_safe=extra,
+                           fine_map=fine)
         world.set_q(q_sel, GRIPPER_MAX_WIDTH)
         outcome = execute_grasp(world, sel, q_sel, config.execute)
         return GraspOnlyResult(q_view, vis, len(points), target, sel, outcome, map_time, way.time_s, fine_time, n_insp)

@@ -79,7 +79,12 @@ class GraspTrialConfig:
     target's points for the hand's checks (as in the grasp-only harness); scan: the
     near-field scan before INSPECT (`trial.grasp_scan`, on the grasp map; max_views=0: off);
     plan_via_home: when no path to the pre-grasps plans directly, the selection tries one via
-    the home posture (`select_grasp(q_via=...)`)."""
+    the home posture (`select_grasp(q_via=...)`); outside_free: the unknown space the
+    method's own validity checker takes as free (outside the confined space's box, farther
+    than its obstacle halo from anything seen; `exploration.world_model.assumed_free_mask`)
+    is free for INSPECT's hypotheses and GRASP too: the arm moved under that rule all
+    through the exploration, and its elbow at a grasp pose is where a wrist camera seldom
+    looks."""
 
     enabled: bool = True
     target: TargetConfig = field(default_factory=TargetConfig)
@@ -94,6 +99,7 @@ class GraspTrialConfig:
     fine_margin: float = 0.2
     scan: TrialScanConfig = field(default_factory=lambda: TrialScanConfig(max_views=0))
     plan_via_home: bool = False
+    outside_free: bool = False
 
     def __post_init__(self) -> None:
         if not 0.02 <= self.fine_margin <= 0.5:

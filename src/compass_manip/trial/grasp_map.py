@@ -45,6 +45,7 @@ class GraspMap(TrialObserver):
             max_range, swept_margin, start_margin, sweep_step
         self.swept_all = np.zeros(self.occ.shape, bool)
         self._way: list[np.ndarray] = []
+        self._fine: dict = {}  # (box, upsample) -> [fine map, frames integrated into it]
 
     def _mark(self, Q: np.ndarray, margin: float) -> None:
         mark_configs(self.swept_all, self.occ, self.spheres, Q, margin)
@@ -77,21 +78,38 @@ class GraspMap(TrialObserver):
 
     def fine_map(self, lo: np.ndarray, hi: np.ndarray, upsample: int = 2) -> OccupancyMap:
         """Every kept frame integrated again into a map `upsample` times finer than occ over
-        the box lo..hi (3,) [m] (`grasp.field.local_fine_map`, aligned with occ's voxels)."""
+        the box lo..hi (3,) [m] (`grasp.field.local_fine_map`, aligned with occ's voxels).
+        The map of a box asked for before is kept and only the frames since are integrated
+        into it (the same map as integrating all of them afresh: frames go in in order)."""
         if not self.keep_frames:
             raise CompassInputError("GraspMap.fine_map needs keep_frames=True (no frames were kept)")
-        fine = local_fine_map(self.occ, lo, hi, upsample)
-        for obs in self.frames:
-            integrate_observation(fine, obs, self.spheres, self.max_range)
-        return fine
+        key = (tuple(np.round(np.asarray(lo, dtype=np.float64), 9)), tuple(np.round(np.asarray(hi, dtype=np.float64), 9)),
+               int(upsample))
+        if key not in self._fine:
+            self._fine[key] = [local_fine_map(self.occ, lo, hi, upsample), 0]
+        entry = self._fine[key]
+        for obs in self.frames[entry[1]:]:
+            integrate_observation(entry[0], obs, self.spheres, self.max_range)
+        entry[1] = len(self.frames)
+        return entry[0]
 
 
 class GraspWorld:
     """The world model `GraspInspector` reads: the grasp map's occ and swept, the method's
-    world model's checker, kinematics and spheres."""
+    world model's checker, kinematics and spheres; with fine_margin [m], `fine_map(points)`
+    gives the grasp map's frames at `upsample` times its resolution within fine_margin of
+    the target's points (the GRASP stage's fine map), else None."""
 
-    def __init__(self, grasp_map: GraspMap, method_world) -> None:
+    def __init__(self, grasp_map: GraspMap, method_world, fine_margin: float | None = None,
+                 upsample: int = 2) -> None:
         self.grasp_map, self.method_world = grasp_map, method_world
+        self.fine_margin, self.upsample = fine_margin, upsample
+
+    def fine_map(self, points: np.ndarray) -> OccupancyMap | None:
+        if self.fine_margin is None or not self.grasp_map.frames:
+            return None
+        pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        return self.grasp_map.fine_map(pts.min(0) - self.fine_margin, pts.max(0) + self.fine_margin, self.upsample)
 
     @property
     def occ(self) -> OccupancyMap:

@@ -20,8 +20,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import CompassInputError
+from ..grasp.candidates import AntipodalProposer, PinnedProposer
 from ..grasp.select import GraspFailure, GraspSelection, select_grasp
-from ..exploration.world_model import mark_configs
+from ..exploration.world_model import assumed_free_mask, mark_configs, method_safe_voxels
 from ..grasp.target import build_target_model
 from ..mapping.occupancy import VoxelState
 from ..robot.spheres import panda_sphere_model
@@ -71,7 +72,7 @@ class GraspStageResult:
 
 def run_grasp_stage(world, occupancy, detection, task, q_current: np.ndarray, moved: list[np.ndarray],
                     config, rng: np.random.Generator, planning_charge_s: float | None,
-                    grasp_map=None) -> GraspStageResult:
+                    grasp_map=None, pinned=None, method_rules=None) -> GraspStageResult:
     """Select and execute a grasp of the detected target from q_current (7,) [rad].
 
     occupancy: the method's map; detection: the accepted `perception.detector.Detection`;
@@ -80,7 +81,12 @@ def run_grasp_stage(world, occupancy, detection, task, q_current: np.ndarray, mo
     [s], or None to charge its measured compute time; grasp_map: the trial's
     `trial.grasp_map.GraspMap` when `occupancy` is its map: with `config.fine_map` its frames
     are integrated again at 5 mm around the target's points (`fine_margin` [m]) and the
-    hand's checks near the target use that map, as in the grasp-only harness."""
+    hand's checks near the target use that map, as in the grasp-only harness; pinned: a
+    `grasp.candidates.GraspCandidates` checked before the proposer's own (INSPECT's grasp
+    hypotheses, `trial.grasp_views.GraspInspector.pinned`), or None; method_rules: the
+    method's `exploration.world_model.WorldModelConfig`: with `config.outside_free` the
+    unknown space its validity checker takes as free (outside the confined space, away from
+    seen obstacles) is free for the grasp too."""
     if rng is None:
         raise CompassInputError("run_grasp_stage needs an explicit np.random.Generator (rng)")
     q_current = np.asarray(q_current, dtype=np.float64)
@@ -97,13 +103,19 @@ def run_grasp_stage(world, occupancy, detection, task, q_current: np.ndarray, mo
         extra &= occupancy.state != VoxelState.OCCUPIED
     if config.near_body_free:
         extra |= near_body_unknown(occupancy, spheres, np.asarray(world.robot.q_home))
+    if method_rules is not None and config.outside_free:  # the exploration's own rule for unknown space
+        extra = method_safe_voxels(occupancy, extra, assumed_free_mask(occupancy, task, method_rules),
+                                   method_rules.obstacle_halo)
     fine, t_fine = None, 0.0
     if grasp_map is not None and config.fine_map and grasp_map.frames:
         t0 = time.perf_counter()
         fine = grasp_map.fine_map(points.min(0) - config.fine_margin, points.max(0) + config.fine_margin,
                                   config.select.field_upsample)
         t_fine = time.perf_counter() - t0
-    sel = select_grasp(target, occupancy, task, q_current, spheres, config.select, rng, extra_safe=extra,
+    proposer = None if pinned is None or len(pinned) == 0 else \
+        PinnedProposer(AntipodalProposer(config.select.candidates), pinned)
+    sel = select_grasp(target, occupancy, task, q_current, spheres, config.select, rng, proposer=proposer,
+                       extra_safe=extra,
                        fine_map=fine, q_via=np.asarray(world.robot.q_home) if config.plan_via_home else None)
     charge = sel.time_s + t_fine if planning_charge_s is None else planning_charge_s
     if sel.failure is not None:

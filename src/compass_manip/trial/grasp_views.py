@@ -26,6 +26,7 @@ import numpy as np
 
 from ..errors import CompassInputError
 from ..exploration.viewpoints import sample_direction_in_cone, view_pose
+from ..grasp.candidates import AntipodalProposer, GraspCandidates, PinnedProposer
 from ..grasp.hypotheses import grasp_hypotheses, needed_voxels, strict_unsafe_mask
 from ..grasp.select import base_volume
 from ..grasp.target import build_target_model
@@ -101,6 +102,22 @@ class GraspInspector:
         self.more_candidates = more_candidates
         self.last: dict = {}  # what the last step saw (hypotheses, needed voxels, views), for diagnosis
         self.stats: dict = {}
+        self.pinned = GraspCandidates.empty()  # every hypothesis found so far (`pin`), newest first
+
+    def pin(self, hyps) -> None:
+        """Keep the hypotheses' candidates (newest first, at most `config.max_pinned`, exact
+        repeats once): the next step checks them again whatever the proposer draws, so the
+        views bought for one grasp are not lost to a new random draw, and the GRASP stage
+        gets them (`pinned`) for its selection."""
+        if self.config.max_pinned == 0:
+            return
+        new = [h.candidate for h in hyps if h.candidate is not None]
+        both = GraspCandidates.concat(new + [self.pinned])
+        if len(both) == 0:
+            return
+        key = np.round(both.T_world_tcp[:, :3, :].reshape(len(both), -1), 6)
+        _, first = np.unique(key, axis=0, return_index=True)
+        self.pinned = both.take(np.sort(first)[: self.config.max_pinned])
 
     def needs(self, q_current: np.ndarray, detection, occ: OccupancyMap | None = None, hyps=None):
         """(hypotheses, needed voxels per hypothesis) on `occ` (default the method's map);
@@ -117,8 +134,11 @@ class GraspInspector:
         strict = strict_unsafe_mask(occ, target, self.select_config.clearance, safe, extra)
         if hyps is None:
             self.stats = {}
+            proposer = PinnedProposer(AntipodalProposer(self.select_config.candidates), self.pinned)
+            fine = wm.fine_map(pts) if hasattr(wm, "fine_map") else None
             hyps = grasp_hypotheses(target, occ, self.task, q, wm.spheres, self.select_config, self.config.hypotheses,
-                                    self.rng, safe, extra, self.ik, stats=self.stats)
+                                    self.rng, safe, extra, self.ik, proposer, stats=self.stats, fine_map=fine)
+            self.pin(hyps)
         return hyps, needed_voxels(occ, hyps, wm.spheres, strict, self.config.hypotheses)
 
     def __call__(self, q_current: np.ndarray, detection) -> InspectPlan:

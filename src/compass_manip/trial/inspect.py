@@ -43,7 +43,9 @@ class InspectConfig:
     n_around look at all needed voxels from within around_cone [rad] of the mean approach,
     backed off view_distance [m]; n_q7 camera IK samples; done_unknown: INSPECT stops when
     a hypothesis needs at most this many unknown voxels; min_fraction of the hypotheses'
-    weight a grasp-mode view must see."""
+    weight a grasp-mode view must see; max_pinned: the grasp mode keeps the candidates of up
+    to this many hypotheses found so far and checks them again at every step and in the GRASP
+    stage's selection (0: each step draws afresh, as before)."""
 
     n_views: int = 6
     mode: str = "grasp"
@@ -57,6 +59,7 @@ class InspectConfig:
     n_q7: int = 4
     done_unknown: int = 0
     min_fraction: float = 0.02
+    max_pinned: int = 48
     n_samples: int = 300
     sigma: float = 0.12
     wrist_sigma: float = 0.5
@@ -74,6 +77,8 @@ class InspectConfig:
     def __post_init__(self) -> None:
         if isinstance(self.n_views, bool) or not isinstance(self.n_views, int) or not 0 <= self.n_views <= 20:
             raise CompassInputError(f"n_views {self.n_views!r} is not allowed; use an integer 0..20")
+        if isinstance(self.max_pinned, bool) or not isinstance(self.max_pinned, int) or not 0 <= self.max_pinned <= 1000:
+            raise CompassInputError(f"max_pinned {self.max_pinned!r} is not allowed; use an integer 0..1000")
         if not 1 <= self.n_samples <= 10000 or not 1 <= self.n_goals <= 100 or self.min_gain < 0:
             raise CompassInputError(f"n_samples {self.n_samples} / n_goals {self.n_goals} / min_gain "
                                     f"{self.min_gain} not allowed; use 1..10000, 1..100 and >= 0")

@@ -28,6 +28,7 @@ from .config import GRASP_ABLATION_METHOD, ORACLE_DETECTOR, TrialConfig
 from .grasp_stage import run_grasp_stage
 from .grasp_map import GraspMap, GraspWorld
 from .grasp_scan import NearFieldScanner
+from ..exploration.world_model import assumed_free_mask, method_safe_voxels
 from .grasp_views import GraspInspector
 from .inspect import plan_inspect_view
 from .machine import MachineOutcome, TrialMachine
@@ -81,6 +82,22 @@ class TrialRun:
     metrics: MetricsRecorder
 
 
+def _grasp_assumptions(config, spheres, q_home, task, rules):
+    """`occ -> mask` of the unknown space INSPECT's hypotheses take as free besides the
+    robot's own (`GraspTrialConfig.near_body_free` / `outside_free`), or None."""
+    if not config.near_body_free and not config.outside_free:
+        return None
+
+    def assumed(occ):
+        out = np.zeros(occ.shape, bool)
+        if config.near_body_free:
+            out |= near_body_unknown(occ, spheres, q_home)
+        if config.outside_free:
+            out |= method_safe_voxels(occ, out, assumed_free_mask(occ, task, rules), rules.obstacle_halo)
+        return out
+    return assumed
+
+
 def run_trial(spec: TrialSpec, config: TrialConfig | None = None, progress=None) -> TrialResult:
     """Run one trial and return its metrics."""
     return run_trial_full(spec, config, progress).result
@@ -124,8 +141,10 @@ def run_trial_full(spec: TrialSpec, config: TrialConfig | None = None, progress=
 
         if config.grasp.inspect.mode == "grasp":  # the grasp hypotheses' unknown voxels (trial.grasp_views)
             spheres, q_home = panda_sphere_model(world.robot), np.asarray(world.robot.q_home)
-            near = (lambda occ: near_body_unknown(occ, spheres, q_home)) if config.grasp.near_body_free else None
-            wm = method.world if gmap is None else GraspWorld(gmap, method.world)
+            near = _grasp_assumptions(config.grasp, spheres, q_home, task, method.world.config)
+            wm = method.world if gmap is None else GraspWorld(
+                gmap, method.world, config.grasp.fine_margin if config.grasp.fine_map else None,
+                config.grasp.select.field_upsample)
             inspect = GraspInspector(wm, world.camera.K, task, config.grasp.target, config.grasp.select,
                                      config.grasp.inspect, insp_rng, near)
         else:
@@ -145,9 +164,13 @@ def run_trial_full(spec: TrialSpec, config: TrialConfig | None = None, progress=
         grasp_rng = np.random.default_rng(np.random.SeedSequence((spec.seed, spec.level, spec.scene, spec.trial, 11)))
         charge = None if config.clock.measured else config.clock.planning_charge_s
 
-        def grasp(q, detection, moved):
+        inspector = inspect.then if isinstance(inspect, NearFieldScanner) else inspect
+        rules = method.world.config if own is not None else None
+
+        def grasp(q, detection, moved):  # INSPECT's grasp hypotheses are checked first
+            pinned = inspector.pinned if isinstance(inspector, GraspInspector) else None
             return run_grasp_stage(world, grasp_occ, detection, task, q, moved, config.grasp, grasp_rng, charge,
-                                   grasp_map=gmap)
+                                   grasp_map=gmap, pinned=pinned, method_rules=rules)
     try:
         outcome = TrialMachine(world, method, buffer, metrics, config, progress, pass_frames=oracle,
                                grasp=grasp, observer=observers,
