@@ -96,15 +96,7 @@ def mark_spheres(mask, grid_min, res, centers, radii):
             x = grid_min[0] + (i + 0.5) * res - c0
             for j in range(j0, j1 + 1):
                 y = grid_min[1] + (j + 0.5) * res - c1
-                rest = r2 - x * x - y * y
-                if rest < -1e-9 * r2:  # this column misses the sphere (with room for rounding)
-                    continue
-                # the column's voxels inside form one run around c2: test only the run found
-                # from the chord, grown by one voxel each way (the same voxels as all of k0..k1)
-                h = np.sqrt(max(rest, 0.0))
-                ka = max(k0, int(np.floor((c2 - h - grid_min[2]) / res - 0.5)) - 1)
-                kb = min(k1, int(np.floor((c2 + h - grid_min[2]) / res - 0.5)) + 2)
-                for k in range(ka, kb + 1):
+                for k in range(k0, k1 + 1):
                     z = grid_min[2] + (k + 0.5) * res - c2
                     if x * x + y * y + z * z <= r2:
                         mask[i, j, k] = True
