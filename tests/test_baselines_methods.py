@@ -81,6 +81,32 @@ def test_gse_tree_nodes_are_valid_and_reachable(setup):
     assert d.stats["stage"] == "local" and d.stats["G"] >= GSEConfig().min_gain
 
 
+def test_gse_tree_grows_as_one_extend_per_uniform_draw(setup):
+    """grow_random_tree's compiled loop gives the tree of `extend(rng.uniform(lo, hi))` per
+    iteration, node for node, and leaves the generator where those draws leave it, also
+    when the capacity ends the growth early."""
+    from compass_manip.motion.tree import JointTree
+    from compass_manip.robot.model import Q_MAX, Q_MIN
+
+    scene, frame, q0, K = setup
+    m = make_method("gse", scene.task(), CompassConfig(), np.random.default_rng(0), q0, K)
+    m.observe(frame.observation())
+    for config in (GSEConfig(), replace(GSEConfig(), capacity=8)):
+        rng_fast, rng_ref = np.random.default_rng(11), np.random.default_rng(11)
+        fast = grow_random_tree(m.world, config, rng_fast)
+        ref = JointTree(m.world.q, m.world.checker, capacity=config.capacity, step=config.step, res=config.res)
+        lo = np.maximum(Q_MIN, m.world.q - config.local_range)
+        hi = np.minimum(Q_MAX, m.world.q + config.local_range)
+        for _ in range(config.iterations):
+            if ref.count >= config.capacity - 2:
+                break
+            ref.extend(rng_ref.uniform(lo, hi), connect=False)
+        assert fast.count == ref.count > 1
+        assert np.array_equal(fast.q, ref.q) and np.array_equal(fast.parent, ref.parent)
+        assert fast.edge_checks == ref.edge_checks
+        assert rng_fast.random() == rng_ref.random()
+
+
 def test_gse_score_is_nbvp_discounted_gain():
     np.testing.assert_allclose(node_scores([10, 10, 0], [0.0, 2.0, 1.0], 0.5), [10, 10 * np.exp(-1.0), 0])
     np.testing.assert_allclose(node_scores([3, 5], [4.0, 9.0], 0.0), [3, 5])

@@ -54,3 +54,28 @@ def test_view_pose_matches_look_at_with_roll():
     d /= np.linalg.norm(d)
     T = view_pose(p, d, 0.4, 0.7)
     np.testing.assert_allclose(T, look_at(p - 0.4 * d, p) @ make_T(rot_z(0.7)), atol=1e-12)
+
+
+def test_tree_path_costs_equal_motion_cost_bit_for_bit():
+    """GSE's node costs from the tree equal `motion_cost` of every root path exactly, for
+    shallow nodes (summed in order) and deep ones (numpy's pairwise sum)."""
+    from compass_manip.exploration.utility import motion_cost, tree_path_costs
+
+    rng = np.random.default_rng(0)
+    for deep in (False, True):
+        n = 120
+        Q = rng.uniform(-2.0, 2.0, (n, 7))
+        parent = np.full(n, -1)
+        for k in range(1, n):
+            parent[k] = k - 1 if deep and k < 40 else rng.integers(0, k)
+
+        def path_to(k):
+            idx = []
+            while k >= 0:
+                idx.append(k)
+                k = int(parent[k])
+            return Q[idx[::-1]]
+
+        expected = motion_cost([path_to(k) for k in range(n)])
+        assert np.array_equal(tree_path_costs(Q, parent), expected)
+    assert np.array_equal(tree_path_costs(Q[:1], parent[:1]), [0.0])

@@ -93,6 +93,13 @@ def test_manipulability_and_batches(kin):
     Tb = kin.T_world_tcp_batch(Q)
     Cb = kin.T_world_cam_batch(Q)
     Lb = kin.fk_links_batch(Q)
+    from compass_manip.robot.kinematics import jacobian_kernel  # the batch's compiled loop: the same numbers
+    P = (Lb[:, kin.hand_index] @ kin.T_hand_frame("tcp"))[:, :3, 3]
+    t = kin.tree
+    for n in range(len(Q)):
+        ref = np.empty((6, 7))
+        jacobian_kernel(Lb[n], P[n], t.joint_kind, t.joint_index, t.axis, t.anchor, ref)
+        assert np.array_equal(Jb[n], ref)
     for n, q in enumerate(Q):
         J = kin.jacobian(q)
         np.testing.assert_allclose(Jb[n], J, atol=1e-14)

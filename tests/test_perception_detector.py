@@ -175,3 +175,35 @@ def test_a_partly_hidden_target_is_accepted_from_30_percent_of_its_height(detect
     assert dets[0].verdict is (Verdict.ACCEPTED if accepted else Verdict.PARTIAL)
     strict = AppearanceDetector(DetectorConfig(min_completeness=0.6))(frame.observation(), target_query(tall))
     assert strict[0].verdict is Verdict.PARTIAL
+
+
+def test_self_masked_detector_skips_the_mask_only_where_nothing_can_be_found(detector, monkeypatch):
+    """With no pixel of the query's colour the self-masked appearance detector returns ()
+    without back-projecting the image (its mask); with the target in view it gives the
+    same detections as without the shortcut."""
+    import compass_manip.perception.self_mask as self_mask
+    from compass_manip.robot.spheres import panda_sphere_model
+
+    spheres = panda_sphere_model()
+    calls = []
+    real = self_mask.self_pixels
+    monkeypatch.setattr(self_mask, "self_pixels", lambda *a, **k: calls.append(1) or real(*a, **k))
+    masked = self_mask.SelfMaskedDetector(detector, spheres)
+    without = self_mask.SelfMaskedDetector(lambda o, q: detector(o, q), spheres)  # no may_detect
+    query = target_query(TARGET)
+    frame, _ = _observe(_scene([]))
+    obs = frame.observation()
+    assert detector.may_detect(obs, query)
+    a, b = masked(obs, query), without(obs, query)
+    assert len(calls) == 2 and len(a) == len(b) >= 1 and any(d.accepted for d in a)
+    for x, y in zip(a, b):
+        assert (x.bbox, x.n_pixels, x.verdict, x.shape) == (y.bbox, y.n_pixels, y.verdict, y.shape)
+        assert np.array_equal(x.points_world, y.points_world)
+    blue = Primitive("target", "box", (0.025, 0.025, 0.06), (0.66, -0.12, FLOOR_Z + 0.06), 0.3, BLUE)
+    other = target_query(TARGET)  # a red box, where only a blue one stands
+    frame, _ = _observe(_scene([], target=blue))
+    obs = frame.observation()
+    calls.clear()
+    assert not detector.may_detect(obs, other)
+    assert masked(obs, other) == () == without(obs, other)
+    assert len(calls) == 1  # only the detector without the shortcut masked the image

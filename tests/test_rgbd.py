@@ -137,3 +137,44 @@ def test_box_culling_drops_the_camera_links_and_keeps_the_images(world):
             assert np.array_equal(culled.seg, full.seg), i
     finally:
         world.cull_outside_view = True
+
+
+_RENDER_SNIPPET = """
+import hashlib, os, sys
+import numpy as np
+from compass_manip.robot.model import Q_HOME
+from compass_manip.sim.certify import certified_scene
+from compass_manip.sim.world import World
+assert os.environ["LP_NUM_THREADS"] == sys.argv[1]
+w = World(certified_scene(4, 0, 0).scene)
+rng = np.random.default_rng(5)
+lo, hi = w.model.jnt_range[:7, 0], w.model.jnt_range[:7, 1]
+h = hashlib.sha1()
+for q in [Q_HOME] + [np.clip(Q_HOME + rng.normal(0.0, 0.3, 7), lo, hi) for _ in range(3)]:
+    w.set_q(q)
+    rgb, depth = w.render_rgbd()
+    h.update(rgb.tobytes()); h.update(depth.tobytes())
+print(h.hexdigest())
+"""
+
+
+def test_llvmpipe_threads_default_and_same_images(tmp_path):
+    """Importing sim.rgbd makes llvmpipe rasterise on the calling thread (LP_NUM_THREADS=0)
+    unless the environment names a value, and the images do not depend on it."""
+    import os
+    import subprocess
+    import sys
+
+    assert os.environ.get("LP_NUM_THREADS") is not None  # set (by default to "0") by the import above
+    digests = []
+    for threads in ("0", "2"):
+        env = dict(os.environ, LP_NUM_THREADS=threads)
+        out = subprocess.run([sys.executable, "-c", _RENDER_SNIPPET, threads], env=env, capture_output=True,
+                             text=True, timeout=300)
+        assert out.returncode == 0, out.stderr[-2000:]
+        digests.append(out.stdout.strip().splitlines()[-1])
+    assert digests[0] == digests[1]
+    env = {k: v for k, v in os.environ.items() if k != "LP_NUM_THREADS"}
+    out = subprocess.run([sys.executable, "-c", "import os, compass_manip.sim.rgbd; print(os.environ['LP_NUM_THREADS'])"],
+                         env=env, capture_output=True, text=True, timeout=120)
+    assert out.stdout.strip() == "0", out.stderr[-2000:]

@@ -37,7 +37,7 @@ from ..task import Task
 from .base import Decision, Phase, StopReason
 from .baseline_common import MapMethod, ViewPlanningConfig, interior_box, plan_to, timed
 from .mue_rrt import validated_path
-from .utility import motion_cost
+from .utility import tree_path_costs
 from .viewpoints import sample_direction_in_cone, view_configurations, view_pose
 from .world_model import WorldModelConfig
 
@@ -91,10 +91,14 @@ def grow_random_tree(world, config: GSEConfig, rng: np.random.Generator) -> Join
     tree = JointTree(world.q, world.checker, capacity=config.capacity, step=config.step, res=config.res)
     lo = np.maximum(Q_MIN, world.q - config.local_range)
     hi = np.minimum(Q_MAX, world.q + config.local_range)
-    for _ in range(config.iterations):
-        if tree.count >= config.capacity - 2:
-            break
-        tree.extend(rng.uniform(lo, hi), connect=False)
+    # = `tree.extend(rng.uniform(lo, hi))` per iteration while tree.count < capacity - 2, in
+    # one compiled loop: uniform(lo, hi) is lo + (hi - lo) * random(), so all targets are drawn
+    # at once and the generator is then left where the used draws leave it
+    state = rng.bit_generator.state
+    targets = lo + (hi - lo) * rng.random((config.iterations, lo.size))
+    used = tree.extend_each(targets, config.capacity - 2)
+    rng.bit_generator.state = state
+    rng.random((used, lo.size))
     return tree
 
 
@@ -135,7 +139,7 @@ class GSEMethod(MapMethod):
         Q = tree.q.copy()
         T = self.world.kin.T_world_cam_batch(Q)
         G = info_gain_batch(self.roi_map(config.roi_margin), T, self.K, config.gain_range, config.rays).astype(float)
-        C = motion_cost([tree.path_to(k) for k in range(len(Q))])
+        C = tree_path_costs(Q, tree.parent)  # = motion_cost of every path_to(k)
         S = node_scores(G, C, config.path_lambda)
         t = T[:, :3, 3]
         moved = np.linalg.norm(t - t[0], axis=1)

@@ -107,6 +107,8 @@ def grow_tree(world, ik, frontiers, points, outward: np.ndarray, config: TreeCon
     sizes = np.array([c.size for c in frontiers], float)
     pf = sizes / sizes.sum() if len(sizes) else sizes
     pts = np.asarray(points, float).reshape(-1, 3)
+    lo = np.maximum(Q_MIN, world.q - config.local_range)
+    span = np.minimum(Q_MAX, world.q + config.local_range) - lo
     for _ in range(config.iterations):
         if tree.count >= config.capacity - 2:
             break
@@ -123,10 +125,8 @@ def grow_tree(world, ik, frontiers, points, outward: np.ndarray, config: TreeCon
         if T is not None:
             for q in view_configurations(ik, T, world.q, config.ik_q7, config.ik_solutions):
                 tree.extend(q, connect=True)
-        else:
-            q0 = world.q
-            tree.extend(rng.uniform(np.maximum(Q_MIN, q0 - config.local_range),
-                                    np.minimum(Q_MAX, q0 + config.local_range)), connect=False)
+        else:  # rng.uniform(lo, hi), which is lo + (hi - lo) * random(), without its argument checks
+            tree.extend(lo + span * rng.random(lo.size), connect=False)
     return tree
 
 

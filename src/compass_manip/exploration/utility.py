@@ -44,6 +44,37 @@ def motion_cost(paths: list[np.ndarray]) -> np.ndarray:
     return np.array([float(np.sum(np.linalg.norm(np.diff(np.asarray(p, float), axis=0), axis=1))) for p in paths])
 
 
+#: numpy sums up to this many terms one after another (longer sums are pairwise)
+_SEQUENTIAL_TERMS = 7
+
+
+def tree_path_costs(Q: np.ndarray, parent: np.ndarray) -> np.ndarray:
+    """`motion_cost([path_to(k) for k in range(N)])` of a tree with nodes Q (N, 7) [rad]
+    and parents (N,) (-1 at the root; parents precede their children), bit for bit, without
+    building the paths: a node at most 7 edges deep costs its parent's cost plus its edge
+    (numpy sums up to 7 terms in order), a deeper one the numpy sum of its edges."""
+    Q = np.asarray(Q, float)
+    parent = np.asarray(parent)[: len(Q)]
+    C = np.zeros(len(Q))
+    if len(Q) < 2:
+        return C
+    step = np.zeros(len(Q))
+    step[1:] = np.linalg.norm(Q[1:] - Q[parent[1:]], axis=1)
+    depth = np.zeros(len(Q), dtype=np.int64)
+    for k in range(1, len(Q)):
+        p = int(parent[k])
+        depth[k] = depth[p] + 1
+        if depth[k] <= _SEQUENTIAL_TERMS:
+            C[k] = C[p] + step[k]
+        else:
+            chain, j = [], k
+            while j > 0:
+                chain.append(step[j])
+                j = int(parent[j])
+            C[k] = float(np.sum(np.array(chain[::-1])))
+    return C
+
+
 def normalise(x: np.ndarray) -> np.ndarray:
     """x divided by its largest magnitude (zeros stay zeros)."""
     x = np.asarray(x, dtype=float)

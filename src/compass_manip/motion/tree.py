@@ -83,6 +83,20 @@ def extend(args, nodes, parent, count, q_target, step, res, connect):
     return result, k, count, n_checks
 
 
+@nb.njit(cache=True)
+def extend_each(args, nodes, parent, count, targets, step, res, connect, stop_count):
+    """`extend` towards each row of targets (m, 7) [rad] in order until the tree holds
+    stop_count nodes (checked before each call). Returns (new count, calls made, edge checks)."""
+    used, checks = 0, 0
+    for i in range(targets.shape[0]):
+        if count >= stop_count:
+            break
+        _, _, count, c = extend(args, nodes, parent, count, targets[i], step, res, connect)
+        used += 1
+        checks += c
+    return count, used, checks
+
+
 class JointTree:
     """A tree of valid configurations rooted at q_root (7,) [rad], grown with `extend`.
 
@@ -108,6 +122,15 @@ class JointTree:
                                      np.asarray(q_target, dtype=np.float64), self.step, self.res, connect)
         self.edge_checks += c
         return int(r), int(k)
+
+    def extend_each(self, targets: np.ndarray, stop_count: int, connect: bool = False) -> int:
+        """`extend` towards each row of targets (m, 7) [rad] in order while the tree holds
+        fewer than stop_count nodes, in one compiled loop; returns how many targets were used."""
+        targets = np.ascontiguousarray(targets, dtype=np.float64).reshape(-1, self.nodes.shape[1])
+        self.count, used, c = extend_each(self.args, self.nodes, self.parent, self.count, targets, self.step,
+                                          self.res, connect, int(stop_count))
+        self.edge_checks += c
+        return int(used)
 
     def nearest(self, q: np.ndarray) -> int:
         return int(nearest(self.nodes, self.count, np.asarray(q, dtype=np.float64)))

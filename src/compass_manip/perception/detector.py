@@ -130,6 +130,18 @@ class AppearanceDetector:
         self.config = config or DetectorConfig()
         self._colours = ColourMaskCache(self.config)
 
+    def may_detect(self, obs: Observation, query: TargetQuery) -> bool:
+        """False when this detector finds nothing in obs nor in obs with the depth of any
+        pixels removed (fewer than min_pixels pixels of the query's colour with depth in
+        range; removing depth only removes pixels). `SelfMaskedDetector` then skips its
+        self mask: the same (empty) result for less work."""
+        if obs.rgb is None:
+            return True  # __call__ says what is wrong
+        depth = np.asarray(obs.depth, dtype=np.float32)
+        mask = self._colours(obs.rgb, query.colour)
+        mask &= np.isfinite(depth) & (depth > 0) & (depth <= self.config.max_depth)
+        return bool(mask.sum() >= self.config.min_pixels)
+
     def __call__(self, obs: Observation, query: TargetQuery) -> tuple[Detection, ...]:
         if obs.rgb is None:
             raise CompassInputError("AppearanceDetector needs an RGB image; the observation has none")

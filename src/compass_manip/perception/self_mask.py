@@ -9,7 +9,11 @@ accepted "bottle" at the base link, 0.07 x 0.17 m, ended the trial as a false de
 points lie inside the robot's collision spheres at the observation's joint state `q`
 (inflated by `margin` [m], the mapping's self filter, `mapping.selffilter`), and runs the
 wrapped detector on the rest (their depth set to 0 = no measurement, which every detector
-ignores). Only the robot's own model and `obs.q` are used: no simulator state.
+ignores). Only the robot's own model and `obs.q` are used: no simulator state. An inner
+detector with a `may_detect(obs, query)` that is False (the appearance detector: too few
+pixels of the query's colour even with every pixel's depth) gives () without the mask,
+which is what it would give with it; most frames show no target colour, and the mask (a
+back-projection of the whole image) was most of the detection thread's work.
 """
 from __future__ import annotations
 
@@ -53,6 +57,9 @@ class SelfMaskedDetector:
         self.inner, self.spheres, self.margin = inner, spheres, float(margin)
 
     def __call__(self, obs: Observation, query: TargetQuery) -> tuple[Detection, ...]:
+        may_detect = getattr(self.inner, "may_detect", None)  # an inner detector that can tell
+        if may_detect is not None and not may_detect(obs, query):  # it finds nothing even unmasked
+            return ()
         mine = self_pixels(obs, self.spheres, self.margin)
         if mine.any():
             depth = np.array(obs.depth, dtype=np.float32, copy=True)

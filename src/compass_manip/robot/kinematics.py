@@ -237,6 +237,15 @@ class KinematicsData(NamedTuple):
     anchor: np.ndarray
 
 
+@nb.njit(cache=True)
+def jacobian_batch_kernel(links, P, joint_kind, joint_index, axis, anchor, out):
+    """`jacobian_kernel` of each configuration: links (N, L, 4, 4), points P (N, 3) [m]
+    into out (N, 6, 7)."""
+    for n in range(links.shape[0]):
+        jacobian_kernel(links[n], P[n], joint_kind, joint_index, axis, anchor, out[n])
+    return out
+
+
 class PandaKinematics:
     """FK, Jacobian and manipulability of the Panda built by `build_robot_spec(robot_config)`.
 
@@ -343,8 +352,7 @@ class PandaKinematics:
         P = (links[:, self.hand_index] @ self.T_hand_frame(frame))[:, :3, 3]
         t = self.tree
         out = np.empty((links.shape[0], 6, 7))
-        for n in range(links.shape[0]):
-            jacobian_kernel(links[n], P[n], t.joint_kind, t.joint_index, t.axis, t.anchor, out[n])
+        jacobian_batch_kernel(links, np.ascontiguousarray(P), t.joint_kind, t.joint_index, t.axis, t.anchor, out)
         return out
 
     def manipulability_batch(self, Q: np.ndarray, frame: str = "tcp") -> np.ndarray:

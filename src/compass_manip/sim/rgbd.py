@@ -8,11 +8,23 @@ The depth buffer holds reversed-Z window depth; `zbuffer_to_depth` turns it into
 z-depth with the same float32 projection constants and float64 arithmetic as the
 renderer's depth mode, so both give the same numbers (tests/test_rgbd.py checks equality
 with the two-pass images).
+
+llvmpipe rasterises on LP_NUM_THREADS worker threads (default: one per core). For one
+320x240 frame the hand-off to them costs more CPU than it saves: with LP_NUM_THREADS=0 the
+calling thread rasterises, 3.4 ms of process CPU per frame instead of 3.7-4.4 ms with 1 or
+2 threads, and 3.4 ms of wall time instead of 4.5-8.2 ms (`docs/compass_loop.md`, "Real
+time, third round"); the images are the same (tests/test_rgbd.py). Importing this module
+sets it to 0 unless the environment already names a value; it takes effect for GL
+contexts created afterwards in this process (Mesa reads it when its screen is created).
 """
 from __future__ import annotations
 
-import mujoco
-import numpy as np
+import os
+
+os.environ.setdefault("LP_NUM_THREADS", "0")
+
+import mujoco  # noqa: E402 (after LP_NUM_THREADS, which Mesa reads when the first context is made)
+import numpy as np  # noqa: E402
 
 
 def zbuffer_to_depth(zbuf: np.ndarray, extent: float, znear: float, zfar: float) -> np.ndarray:
