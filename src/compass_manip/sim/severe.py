@@ -25,7 +25,7 @@ from .scenes import SceneObject
 #: Target bottle: total height [m], body radius, neck radius, neck height [m], mass [kg].
 TARGET_HEIGHT = (0.215, 0.235)
 BODY_RADIUS = (0.03, 0.034)
-NECK_RADIUS = (0.013, 0.016)
+NECK_RADIUS = (0.011, 0.0135)
 NECK_HEIGHT = (0.08, 0.09)
 TARGET_MASS = (0.08, 0.2)
 #: Room above the bottle's top [m] the hand, its camera and the 4 cm lift need.
