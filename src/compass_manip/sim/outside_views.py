@@ -16,9 +16,11 @@ Everything farther out is *outside*. `outside_view_poses` samples that outside z
   target's height on its axis: its body, the top of its body, its top), so the target is in
   the image and near its centre, whatever the eye's elevation or side.
 
-Looking straight at the target is the orientation that sees most of it from a given
-position, up to the image border, so aiming at three points of it bounds what any
-orientation at that position sees. A line of sight from an eye farther out crosses the
+Visibility is the visible share of the target's unoccluded image, so from a given position
+it depends on the orientation only through the image border: any orientation that keeps the
+whole target in the image sees about the same share (a rotation about the optical centre
+changes only how the pixels sample the target), and aiming at three points of it covers the
+rest (the camera's roll does not matter either, the target fits in the image). A line of sight from an eye farther out crosses the
 zone's boundary plane on its way in, so the nearest plane (offset 0) carries the best views
 (in every scene measured, docs/scenes.md); the farther planes are sampled too, on a grid of
 double steps.
@@ -45,7 +47,7 @@ AIM_POINTS = (0.45, 0.7, 0.95)
 SHOULDER_Z = 0.333
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class OutsideViews:
     """Best visible fraction of the target over the outside sample, the pose that reached it
     (T_world_cam, 4x4) and the number of poses checked."""
