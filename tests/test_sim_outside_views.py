@@ -11,8 +11,8 @@ from compass_manip.sim.certify import regenerate
 from compass_manip.sim.levels import generate_scene
 from compass_manip.sim.world import World
 
-#: a level-2 candidate of a development seed (not the default set's seed 0)
-SUB_SEED = (7, 2, 1, 0)
+#: a certified level-2 scene of a development seed (not the default set's seed 0)
+SUB_SEED = (7, 2, 1, 4)
 
 
 def test_outside_positions_cover_the_reachable_zone_in_front_of_the_opening_only():
