@@ -89,11 +89,13 @@ def inside_view_poses(scene: SceneSpec, n: int, rng: np.random.Generator) -> lis
 def search_views(world: World, config: CertifyConfig, rng, ik, full, without) -> Views:
     """Visibility of n_view_poses sampled poses by ray casting (the dominant cost: through every
     view_stride-th pixel, then exactly, through every pixel, where the coarse estimate is
-    within view_refine_margin (severe levels: SEVERE_REFINE_MARGIN) of the threshold, so no pose is classed on the wrong side of it;
-    `certify` checks the certified view exactly again); at the severe levels n_severe_inside_views
-    poses inside or at the opening (`inside_view_poses`) follow the n_view_poses; IK and
-    collision checks for the first n_views (the uniform sample behind the statistics) and for every further pose that
-    sees enough (the search for a good view)."""
+    within view_refine_margin of the threshold, at the severe levels within
+    SEVERE_REFINE_MARGIN, the largest coarse-to-exact difference measured; `certify` checks the
+    certified view exactly again); IK and collision checks for the first n_views (the uniform
+    sample behind the statistics) and for every further pose that sees enough (the search for
+    a good view). At the severe levels n_severe_inside_views poses inside or at the opening
+    (`inside_view_poses`) follow: a search only, best first (refined exactly near the
+    threshold, lazily) until INSIDE_ENOUGH reachable good ones; not in n_good_without."""
     home = np.asarray(world.robot.q_home)
     poses = sample_view_poses(world.scene, config.n_view_poses, rng)
     if world.scene.level in (2, 4):
