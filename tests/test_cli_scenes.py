@@ -10,7 +10,8 @@ from compass_manip.cli import main
 
 KEYS = {"level", "index", "seed", "certified", "start_visibility", "best_fixed_view_visibility", "fv_solvable",
         "view_visibility_fraction", "free_config_fraction", "views_removed_by_obstacles",
-        "grasps_removed_by_obstacles", "grasp_approach_deg", "grasp_yaw_deg", "n_objects", "n_distractors", "attempts"}
+        "grasps_removed_by_obstacles", "grasp_approach_deg", "grasp_yaw_deg", "n_objects", "n_distractors", "attempts",
+        "best_outside_view_visibility", "view_camera_outside_m"}
 
 
 def _run(*args):
@@ -28,6 +29,7 @@ def test_json_output_and_the_cache_it_fills(capsys, tmp_path, monkeypatch):
     assert r["index"] == 0 and r["certified"] and r["level"] == 2 and r["seed"] == 4
     assert r["n_objects"] >= 8 and r["n_distractors"] >= 2 and 0.0 <= r["grasp_approach_deg"] <= 90.0
     assert len(r["rejections"]) == r["attempts"] - 1 and abs(r["grasp_yaw_deg"]) <= 55.0
+    assert r["best_outside_view_visibility"] < 0.3 and r["view_camera_outside_m"] <= 0.10  # a severe level
     # the command certifies afresh (it measures the time) and leaves the entry trials read
     from compass_manip.sim import scene_cache
     from compass_manip.sim.certify import CertifyConfig, certified_scene
@@ -41,7 +43,7 @@ def test_table_files_and_contact_sheet(tmp_path, capsys, monkeypatch):
     monkeypatch.setenv("COMPASS_CACHE_DIR", str(tmp_path / "cache"))
     assert main(["scenes", "1", "--count", "1", "--seed", "3", "--out", str(tmp_path)]) == 0
     out = capsys.readouterr().out
-    for column in ("start", "fv_best", "fv_ok", "view_vis", "free_cfg", "v_rm", "g_rm", "appr°", "yaw°", "obj", "dis",
+    for column in ("start", "fv_best", "fv_ok", "out_best", "cam_out_m", "view_vis", "free_cfg", "v_rm", "g_rm", "appr°", "yaw°", "obj", "dis",
                    "time_s_p90"):
         assert column in out
     assert "fv_solvable" in out  # the per-level summary

@@ -116,8 +116,20 @@ def test_a_target_too_heavy_to_lift_fails_in_physics():
 
 
 def test_no_path_when_the_planner_has_no_time():
-    c = certify(_scene(level=2), CertifyConfig(plan_time_s=1e-6, physics=False, reject_fv_solvable_severe=False))
+    c = certify(_scene(level=2), CertifyConfig(plan_time_s=1e-6, physics=False, reject_fv_solvable_severe=False,
+                                               reject_outside_visible_severe=False))
     assert c.failure is CertFailure.NO_PATH
+
+
+def test_outside_view_gate_flags_a_severe_scene_whose_target_stands_in_the_open():
+    scene = _scene(level=2)  # a can in plain view of the opening, called severe
+    c = certify(scene, CertifyConfig(physics=False, reject_fv_solvable_severe=False))
+    assert c.failure is CertFailure.OUTSIDE_VIEW_SEES_TARGET and c.best_outside_view_visibility >= 0.3
+    off = certify(scene, CertifyConfig(physics=False, reject_fv_solvable_severe=False,
+                                       reject_outside_visible_severe=False))
+    assert off.failure is not CertFailure.OUTSIDE_VIEW_SEES_TARGET  # measured, not gated
+    assert off.best_outside_view_visibility == c.best_outside_view_visibility
+    assert certify(_scene(level=1), CertifyConfig(physics=False)).best_outside_view_visibility is None  # severe only
 
 
 def test_fixed_view_check_flags_an_easy_scene_and_passes_a_hidden_one(base):

@@ -37,7 +37,7 @@ def test_array_filter_equals_one_by_one(world):
     rng = np.random.default_rng(7)
     lo, hi = world.model.jnt_range[:7, 0], world.model.jnt_range[:7, 1]
     kinds = {"scene": 0, "self": 0, "free": 0}
-    for _ in range(400):
+    for _ in range(600):  # the default set's level-4 scene 0 needs 600 for 10 self-only cases
         q = np.clip(Q_HOME + rng.normal(0.0, 0.8, 7), lo, hi)
         for include_self in (True, False):
             got = world.contacts(q, include_self=include_self)

@@ -18,7 +18,8 @@ HELP = "generate and certify the confined scenes of a level; print their difficu
 COLUMNS = (
     ("level", "lv", "{:>2}"), ("index", "idx", "{:>3}"), ("sub_seed", "sub-seed", "{:>14}"),
     ("start_visibility", "start", "{:>5.2f}"), ("best_fixed_view_visibility", "fv_best", "{:>7.2f}"),
-    ("fv_solvable", "fv_ok", "{:>5}"), ("view_visibility_fraction", "view_vis", "{:>8.2f}"),
+    ("fv_solvable", "fv_ok", "{:>5}"), ("best_outside_view_visibility", "out_best", "{:>8.2f}"),
+    ("view_camera_outside_m", "cam_out_m", "{:>9.2f}"), ("view_visibility_fraction", "view_vis", "{:>8.2f}"),
     ("free_config_fraction", "free_cfg", "{:>8.2f}"), ("views_removed_by_obstacles", "v_rm", "{:>5.2f}"),
     ("grasps_removed_by_obstacles", "g_rm", "{:>5.2f}"), ("grasp_approach_deg", "appr°", "{:>5.0f}"),
     ("grasp_yaw_deg", "yaw°", "{:>5.0f}"),
@@ -82,6 +83,9 @@ def run(args) -> int:
             "level": lv, "index": i, "seed": args.seed, "sub_seed": list(cs.scene.seed),
             "certified": c.certified, "start_visibility": round(c.start_visibility, 4),
             "best_fixed_view_visibility": round(c.best_fixed_view_visibility, 4), "fv_solvable": c.fv_solvable,
+            "best_outside_view_visibility": _round(c.best_outside_view_visibility),
+            "view_camera_outside_m": _round(c.view_camera_outside_m), "target_row": cs.scene.extra.get("target_row"),
+            "obstacle_variant": cs.scene.extra.get("obstacle_variant", ""),
             "view_visibility_fraction": round(c.view_visibility_fraction, 4),
             "free_config_fraction": round(c.free_config_fraction, 4),
             "views_removed_by_obstacles": round(c.views_removed_by_obstacles, 4),
@@ -104,6 +108,10 @@ def run(args) -> int:
     else:
         print_table(rows)
     return 0
+
+
+def _round(v: float | None) -> float | None:
+    return None if v is None else round(float(v), 4)
 
 
 def _write(cs, out: str) -> np.ndarray:

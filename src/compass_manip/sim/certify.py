@@ -6,6 +6,12 @@ planner's own conservative sphere model on the ground-truth geometry:
 2. the start camera sees < `max_start_visibility` of the target;
 3. severe levels (2, 4), if `reject_fv_solvable_severe`: no pose of the reference fixed-view
    set sees >= `min_view_visibility` (always measured and recorded as `fv_solvable`);
+3b. severe levels, if `reject_outside_visible_severe`: no camera pose of the dense outside
+   sample (`outside_views`: farther than AT_OPENING = 0.10 m in front of the opening plane,
+   anywhere a Panda wrist reaches, looking in) sees >= `min_view_visibility` (checked after
+   the grasps, which reject more candidates at lower cost; always measured at the severe
+   levels); a good sampled view found later in that zone fails the scene the same way, so a
+   certified severe view lies inside or at the opening;
 4. a reachable grasp exists whose pre-grasp, grasp and lift and the straight segments
    between them are collision-free (checked before the views: it fails more often);
 5. a reachable, collision-free camera pose sees >= `min_view_visibility` of the target;
@@ -33,7 +39,7 @@ from . import oracle
 from .levels import check_level, generate_scene
 from .oracle import GroundTruthGrasp, find_grasp  # noqa: F401  (re-exported for older callers)
 from .physics import grasp_and_lift
-from . import scene_cache
+from . import outside_views, scene_cache
 from .scenes import SceneSpec
 from .view_search import best_exact_visibility, sample_view_poses, search_views  # noqa: F401
 from .world import World
@@ -43,6 +49,7 @@ class CertFailure(enum.Enum):
     HOME_IN_COLLISION = "home configuration in collision"
     TARGET_VISIBLE_AT_START = "target visible from the start camera"
     FIXED_VIEW_SEES_TARGET = "a reference fixed view sees the target (severe level)"
+    OUTSIDE_VIEW_SEES_TARGET = "a camera outside the opening sees the target (severe level)"
     NO_VIEW_SEES_TARGET = "no reachable collision-free view sees the target"
     NO_MONOTONIC_VIEW = "no good view is reached by a monotonic camera approach (moderate level)"
     NO_GRASP = "no reachable collision-free grasp"
@@ -61,7 +68,9 @@ class CertifyConfig:
     where the coarse value is within view_refine_margin of min_view_visibility.
     reject_fv_solvable_severe: make step 3 a gate (on by default: the severe layout, a tall
     bottle behind a low wide box grasped by its neck, is hidden from the reference set in
-    most candidates, so the gate rarely fires; docs/scenes.md)."""
+    most candidates, so the gate rarely fires; docs/scenes.md). reject_outside_visible_severe:
+    make step 3b a gate; n_severe_inside_views: poses inside or at the opening the severe
+    levels' view search adds to its n_view_poses (`view_search.inside_view_poses`)."""
 
     n_views: int = 40
     n_view_poses: int = 160
@@ -80,6 +89,8 @@ class CertifyConfig:
     plan_time_s: float = 2.0
     physics: bool = True
     reject_fv_solvable_severe: bool = True
+    reject_outside_visible_severe: bool = True
+    n_severe_inside_views: int = 60
 
 
 @dataclass(frozen=True)
@@ -94,6 +105,10 @@ class Certificate:
     grasp_approach_deg: approach below the horizontal of the certified grasp (None if none),
     grasp_yaw_deg: its approach direction's angle about +z from the opening's inward normal +x
     (0 = straight in, +-52 = the steepest diagonal candidate; None if none);
+    best_outside_view_visibility: severe levels, the best visible fraction over the dense
+    outside sample (`outside_views`; None at the moderate levels, where it is not measured);
+    view_camera_outside_m [m]: how far the certified view's camera stands in front of the
+    opening plane (negative: inside; None if none);
     lift_height [m] in physics; path: waypoints (n,7) [rad] home -> view -> pre-grasp -> grasp
     -> lift with path_marks the indices of view, pre-grasp, grasp, lift; stage_times_s [s].
     """
@@ -110,6 +125,8 @@ class Certificate:
     grasps_removed_by_obstacles: float = 0.0
     grasp_approach_deg: float | None = None
     grasp_yaw_deg: float | None = None
+    best_outside_view_visibility: float | None = None
+    view_camera_outside_m: float | None = None
     lift_height: float = 0.0
     n_objects: int = 0
     n_colour_distractors: int = 0
@@ -200,6 +217,12 @@ def _certify(scene: SceneSpec, config: CertifyConfig, world: World, t0: float) -
     lap("grasps")
     if not grasps:
         return done(CertFailure.NO_GRASP)
+    if severe:
+        rec["best_outside_view_visibility"] = outside_views.best_outside_visibility(
+            world, config.min_view_visibility).best_visibility
+        lap("outside")
+        if config.reject_outside_visible_severe and rec["best_outside_view_visibility"] >= config.min_view_visibility:
+            return done(CertFailure.OUTSIDE_VIEW_SEES_TARGET)
     without = oracle.ground_truth_checker(scene, base_obstacles=False, margin=config.margin) if obstacles else None
     views = search_views(world, config, rng, ik, full, without)
     reach = np.array([len(q) > 0 for q in views.q_full])
@@ -209,14 +232,23 @@ def _certify(scene: SceneSpec, config: CertifyConfig, world: World, t0: float) -
                view_visibility_fraction=float(g40.sum() / r40.sum()) if r40.any() else 0.0,
                best_view_visibility=best_exact_visibility(world, views, reach))
     if obstacles:
-        rec["views_removed_by_obstacles"] = 1.0 - good.sum() / views.n_good_without if views.n_good_without else 0.0
+        n_good = int(good[:config.n_view_poses].sum())  # the severe levels' inside search is not counted
+        rec["views_removed_by_obstacles"] = 1.0 - n_good / views.n_good_without if views.n_good_without else 0.0
     lap("views")
     if not good.any():
         return done(CertFailure.NO_VIEW_SEES_TARGET)
+    if severe:  # a good sampled view in the outside zone: the dense outside sample missed it
+        out_m = np.array([outside_views.camera_outside_m(scene, T) for T in views.poses])
+        seen_out = good & (out_m > outside_views.AT_OPENING)
+        if seen_out.any():
+            rec["best_outside_view_visibility"] = max(rec["best_outside_view_visibility"],
+                                                      float(views.vis[seen_out].max()))
+            if config.reject_outside_visible_severe:
+                return done(CertFailure.OUTSIDE_VIEW_SEES_TARGET)
     goals = np.vstack([views.q_full[i] for i in np.nonzero(good)[0]])
     goals = goals[np.argsort(np.linalg.norm(goals - home, axis=1), kind="stable")][:24]
     if obstacles:
-        n_all = int(good.sum()) + n_with
+        n_all = int(good[:config.n_view_poses].sum()) + n_with
         n_wo = views.n_good_without + n_without
         if n_wo == 0 or 1.0 - n_all / n_wo < config.min_obstacle_removal:
             return done(CertFailure.OBSTACLES_TOO_WEAK)
@@ -261,7 +293,9 @@ def _certify(scene: SceneSpec, config: CertifyConfig, world: World, t0: float) -
             marks = (len(path1) - 1, len(path1) + len(r2.path) - 2, len(path) - 2, len(path) - 1)
             lap("physics")
             world.set_q(home)
+            T_cam = ik.kin.T_world_cam(path1[-1])
             return done(None, grasp_approach_deg=g.approach_deg, grasp_yaw_deg=_yaw_deg(g),
+                        view_camera_outside_m=round(outside_views.camera_outside_m(scene, T_cam), 4),
                         lift_height=out.lift_height if out else 0.0,
                         path=tuple(tuple(float(v) for v in q) for q in path), path_marks=marks)
     lap("physics")

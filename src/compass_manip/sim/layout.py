@@ -48,12 +48,17 @@ SEVERE_CLEARANCE = (0.34, 0.35)
 SEVERE_Z_BOTTOM = (0.26, 0.30)
 SEVERE_MIN_X_BACK = 0.74
 SEVERE_RAIL = (0.05, 0.065)
+#: Severe levels' opening plane [m] from the base: as close as the home configuration allows
+#: (at x < 0.40 the face frame touches the arm at home), so the target at the back stands
+#: 0.28-0.32 m behind the opening and an eye outside it looks down behind the occluder less
+#: steeply (docs/scenes.md, "The outside-view check").
+SEVERE_X_FRONT = (0.40, 0.42)
 
 
 def draw_cabinet(rng: np.random.Generator, severe: bool = False) -> tuple[CabinetSpec, list[Compartment]]:
     """A cabinet and its compartments (bottom row first). severe: the bottom storey is
-    SEVERE_CLEARANCE tall at SEVERE_Z_BOTTOM, the interior reaches SEVERE_MIN_X_BACK and the
-    shelves carry a face-frame rail (extra draws only then: other levels draw as before)."""
+    SEVERE_CLEARANCE tall at SEVERE_Z_BOTTOM, the opening plane stands at SEVERE_X_FRONT, the
+    interior reaches SEVERE_MIN_X_BACK and the shelves carry a face-frame rail (extra draws only then: other levels draw as before)."""
     n_shelves = int(rng.integers(1, 4))
     clear = [_u(rng, 0.20, 0.35) for _ in range(n_shelves + 1)]
     if severe:
@@ -64,6 +69,7 @@ def draw_cabinet(rng: np.random.Generator, severe: bool = False) -> tuple[Cabine
     rail = 0.0
     if severe:
         z_bottom = _u(rng, *SEVERE_Z_BOTTOM)
+        x_front = _u(rng, *SEVERE_X_FRONT)
         depth = _u(rng, max(0.30, SEVERE_MIN_X_BACK - x_front), 0.38)
         rail = _u(rng, *SEVERE_RAIL)
     width, yc = _u(rng, 0.56, 0.80), _u(rng, -0.05, 0.05)

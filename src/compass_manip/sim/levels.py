@@ -14,7 +14,8 @@ L1 moderate: the target stands on a storey below the start camera's field of vie
    views on that side.
 L2 severe (`severe`): a tall bottle at the back of the bottom storey, a cereal box lying on
    its side just in front of it with its top 6-7 cm below the bottle's top, a face-frame
-   rail under the shelf above: from outside only the neck shows; the wrist camera looks
+   rail under the shelf above: from outside only the neck shows (no camera more than 10 cm
+   in front of the opening sees >= 30 % of the target, certified); the wrist camera looks
    down behind the box from inside the storey, and the only grasp is on the neck, over it.
 L3 = L1 + obstacles near the base and arm; L4 = L2 + those obstacles. The obstacle variant
    (overhead plate / lateral walls / bar, wall and post) is chosen by scene index, so

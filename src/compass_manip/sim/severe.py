@@ -1,12 +1,15 @@
 """The hiding layout of the severe levels (2 and 4): a tall bottle behind a low, wide box.
 
-The target is a bottle 0.215-0.235 m tall with a long neck (8-9 cm), standing at the
-back of the bottom storey (`layout.draw_cabinet(rng, severe=True)`: 0.34-0.35 m clearance, a
-5-6.5 cm face-frame rail under the shelf above). A cereal box lying on its side (4.5-5 cm
+The target is a bottle 0.215-0.235 m tall with a long, thin neck (8-9 cm, radius 1.1-1.35
+cm), standing at the back of the bottom storey (`layout.draw_cabinet(rng, severe=True)`:
+0.34-0.35 m clearance, a 5-6.5 cm face-frame rail under the shelf above, the opening plane
+0.40-0.42 m from the base, so the bottle stands 0.28-0.32 m behind it). A cereal box lying on its side (4.5-5 cm
 deep, 19-24 cm wide) stands 1.5-2 cm in front of it, its top 6.2-7 cm below the bottle's top
 and above its shoulder, so from outside the opening only the neck shows above it; the rail
-and the shelf above limit how steeply an outside eye looks down behind the box (the
-reference fixed views see 0.19-0.28 of the default set's severe targets, docs/scenes.md).
+and the shelf above limit how steeply an outside eye looks down behind the box: no camera
+more than 10 cm in front of the opening sees >= 30 % of the bottle (`outside_views`, checked
+by the certification; the thin neck and the distance behind the opening keep most candidates
+below it by construction, docs/scenes.md).
 The wrist camera looks down behind the box from above it. The only grasp is horizontal on
 the neck (`oracle.NECK_*`), over the box: in the planner's sphere model the palm reaches
 3.7 cm below the TCP and link 7 5.3 cm below it from 9.5 cm behind it, so the box's front
@@ -25,7 +28,7 @@ from .scenes import SceneObject
 #: Target bottle: total height [m], body radius, neck radius, neck height [m], mass [kg].
 TARGET_HEIGHT = (0.215, 0.235)
 BODY_RADIUS = (0.03, 0.034)
-NECK_RADIUS = (0.013, 0.016)
+NECK_RADIUS = (0.011, 0.0135)
 NECK_HEIGHT = (0.08, 0.09)
 TARGET_MASS = (0.08, 0.2)
 #: Room above the bottle's top [m] the hand, its camera and the 4 cm lift need.
