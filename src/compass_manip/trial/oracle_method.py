@@ -71,6 +71,9 @@ class OracleMethod(MapMethod):
 
     def decide(self) -> Decision:
         t0 = time.perf_counter()
+        escape = self.escape()  # as the baselines: out of a start the first frame made invalid
+        if escape is not None:
+            return timed(escape, t0)
         config, rng = self.config, self.rng
         Q, cams = np.zeros((0, 7)), np.zeros((0, 3))
         for _ in range(config.rounds):
