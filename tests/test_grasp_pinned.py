@@ -11,7 +11,6 @@ from _inspect_fixtures import empty_cabinet_world, observed_view
 from compass_manip.errors import CompassInputError
 from compass_manip.grasp.candidates import GraspCandidates, PinnedProposer
 from compass_manip.sim.grasp_only import oracle_detection
-from compass_manip.trial.config import GraspTrialConfig
 from compass_manip.trial.grasp_map import GraspMap
 from compass_manip.trial.grasp_views import GraspInspector
 from compass_manip.trial.inspect import InspectConfig
@@ -83,19 +82,3 @@ def test_fine_map_grows_by_new_frames_and_equals_one_built_afresh():
     finally:
         world.close()
 
-
-def test_hypotheses_carry_their_candidate_row():
-    world = empty_cabinet_world()
-    try:
-        task, wm, q_view, view = observed_view(world)
-        det = SimpleNamespace(points_world=oracle_detection(world, view), T_world_cam=view.T_world_cam)
-        gc = GraspTrialConfig()
-        insp = GraspInspector(wm, world.camera.K, task, gc.target, gc.select, gc.inspect, np.random.default_rng(1))
-        hyps, _ = insp.needs(q_view, det)
-        assert hyps
-        for h in hyps:
-            assert len(h.candidate) == 1 and np.allclose(h.candidate.T_world_tcp[0], h.T_world_tcp)
-            assert h.candidate.score[0] == pytest.approx(h.score)
-        assert len(insp.pinned) == min(len(hyps), gc.inspect.max_pinned)
-    finally:
-        world.close()

@@ -5,6 +5,7 @@ of a random valid configuration near the start does."""
 from types import SimpleNamespace
 
 import numpy as np
+import pytest
 
 from _inspect_fixtures import empty_cabinet_world, observed_view
 
@@ -49,6 +50,10 @@ def test_grasp_view_is_valid_all_the_way_and_sees_more_of_the_needed_space_than_
         insp = GraspInspector(wm, world.camera.K, task, gc.target, gc.select, gc.inspect, np.random.default_rng(1))
         hyps, needed = insp.needs(q_view, det)
         assert hyps and min(len(n) for n in needed) > 0  # the grasps still need unseen space
+        for h in hyps:  # each keeps its candidate row, pinned for the next steps and the selection
+            assert len(h.candidate) == 1 and np.allclose(h.candidate.T_world_tcp[0], h.T_world_tcp)
+            assert h.candidate.score[0] == pytest.approx(h.score)
+        assert len(insp.pinned) == min(len(hyps), gc.inspect.max_pinned)
         insp.counts0 = [len(n) for n in needed]
         p = insp(q_view, det)
         assert p.planned and p.path is not None and np.allclose(p.path[0], q_view)
