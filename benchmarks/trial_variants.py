@@ -94,3 +94,14 @@ def find_only_config() -> TrialConfig:
 
 def find_only(spec) -> tuple[dict, dict]:
     return _run(spec, find_only_config())
+
+
+def grasp_inspect_halo_config() -> TrialConfig:
+    """The grasp map with its 5 mm fine map, up to 20 grasp-aware INSPECT views and the
+    near-body assumption kept 8 cm from anything seen occupied (`near_body_halo`)."""
+    return TrialConfig(grasp=GraspTrialConfig(grasp_map=True, fine_map=True, near_body_halo=0.08,
+                                              inspect=InspectConfig(n_views=20)))
+
+
+def grasp_inspect_halo(spec) -> tuple[dict, dict]:
+    return _run(spec, grasp_inspect_halo_config())

@@ -193,3 +193,35 @@ def test_grasp_map_keeps_the_way_the_arm_moved():
     assert np.allclose(W[0], q0) and np.allclose(W[-1], q1) and len(W) >= 1 + 0.5 / gm.sweep_step
     assert np.all(np.diff(W[1:, 0]) <= gm.sweep_step + 1e-9)  # sampled every sweep_step
     assert gm.swept.any()
+
+
+def test_near_body_halo_keeps_the_assumption_away_from_seen_obstacles(monkeypatch):
+    world = empty_cabinet_world()
+    try:
+        task, wm, q_view, view = observed_view(world)
+        gm = _fed_grasp_map(world, q_view, n=3)
+        det = SimpleNamespace(points_world=oracle_detection(world, view), T_world_cam=view.T_world_cam)
+        seen = []
+
+        def fake_select(target, occ, task_, q, spheres, config, rng, extra_safe=None, fine_map=None, q_via=None,
+                        proposer=None):
+            seen.append(np.array(extra_safe))
+            return GraspSelection(None, 0.0, 0.0, None, None, None, None, float("nan"), False, 0.0, np.zeros(3), 0,
+                                  {}, 0.25, 0.0, GraspFailure.NO_APPROACH_PATH)
+
+        monkeypatch.setattr(grasp_stage, "select_grasp", fake_select)
+        for halo in (0.0, 0.08):
+            grasp_stage.run_grasp_stage(world, gm.occ, det, task, q_view, [], GraspTrialConfig(
+                near_body_halo=halo), np.random.default_rng(0), 0.1)
+    finally:
+        world.close()
+    plain, halo = seen
+    assert np.all(halo <= plain) and halo.sum() < plain.sum()  # only removes
+    occupied = gm.occ.state == VoxelState.OCCUPIED
+    near = np.zeros_like(occupied)  # voxels within one voxel of something seen occupied
+    for ax in range(3):
+        for d in (-1, 1):
+            near |= np.roll(occupied, d, axis=ax)
+    assert plain[near & ~occupied].any() and not halo[near & ~occupied].any()
+    with pytest.raises(CompassInputError, match="near_body_halo"):
+        GraspTrialConfig(near_body_halo=-0.1)

@@ -79,7 +79,9 @@ class GraspTrialConfig:
     target's points for the hand's checks (as in the grasp-only harness); scan: the
     near-field scan before INSPECT (`trial.grasp_scan`, on the grasp map; max_views=0: off);
     plan_via_home: when no path to the pre-grasps plans directly, the selection tries one via
-    the home posture (`select_grasp(q_via=...)`); outside_free: the unknown space the
+    the home posture (`select_grasp(q_via=...)`); near_body_halo [m]: the near-body
+    assumption leaves out unknown voxels within this L1 distance of a voxel seen occupied,
+    as the method's own rule does (`WorldModelConfig.obstacle_halo`; 0: off); outside_free: the unknown space the
     method's own validity checker takes as free (outside the confined space's box, farther
     than its obstacle halo from anything seen; `exploration.world_model.assumed_free_mask`)
     is free for INSPECT's hypotheses and GRASP too: the arm moved under that rule all
@@ -100,10 +102,13 @@ class GraspTrialConfig:
     scan: TrialScanConfig = field(default_factory=lambda: TrialScanConfig(max_views=0))
     plan_via_home: bool = False
     outside_free: bool = False
+    near_body_halo: float = 0.0
 
     def __post_init__(self) -> None:
         if not 0.02 <= self.fine_margin <= 0.5:
             raise CompassInputError(f"fine_margin {self.fine_margin} m is not allowed; use 0.02..0.5 m")
+        if not 0.0 <= self.near_body_halo <= 0.3:
+            raise CompassInputError(f"near_body_halo {self.near_body_halo} m is not allowed; use 0..0.3 m")
         if not 0.0 <= self.moved_margin <= 0.1 or not 1 <= self.max_moved_configs <= 100000:
             raise CompassInputError(f"moved_margin {self.moved_margin} m / max_moved_configs "
                                     f"{self.max_moved_configs} not allowed; use 0..0.1 m and 1..100000")

@@ -102,7 +102,8 @@ def run_grasp_stage(world, occupancy, detection, task, q_current: np.ndarray, mo
         mark_configs(extra, occupancy, spheres, Q, config.moved_margin)
         extra &= occupancy.state != VoxelState.OCCUPIED
     if config.near_body_free:
-        extra |= near_body_unknown(occupancy, spheres, np.asarray(world.robot.q_home))
+        extra |= method_safe_voxels(occupancy, np.zeros(occupancy.shape, bool), near_body_unknown(
+            occupancy, spheres, np.asarray(world.robot.q_home)), config.near_body_halo)
     if method_rules is not None and config.outside_free:  # the exploration's own rule for unknown space
         extra = method_safe_voxels(occupancy, extra, assumed_free_mask(occupancy, task, method_rules),
                                    method_rules.obstacle_halo)

@@ -91,7 +91,7 @@ def _grasp_assumptions(config, spheres, q_home, task, rules):
     def assumed(occ):
         out = np.zeros(occ.shape, bool)
         if config.near_body_free:
-            out |= near_body_unknown(occ, spheres, q_home)
+            out |= method_safe_voxels(occ, out, near_body_unknown(occ, spheres, q_home), config.near_body_halo)
         if config.outside_free:
             out |= method_safe_voxels(occ, out, assumed_free_mask(occ, task, rules), rules.obstacle_halo)
         return out
