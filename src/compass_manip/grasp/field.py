@@ -27,8 +27,9 @@ import numpy as np
 from numba import njit, prange
 
 from ..errors import CompassInputError
-from ..mapping.distance import DistanceField, _distances
+from ..mapping.distance import DistanceField
 from ..mapping.occupancy import MapConfig, OccupancyMap, VoxelState
+from .edt import exact_distances
 
 
 def upsample_mask(mask: np.ndarray, u: int) -> np.ndarray:
@@ -36,10 +37,18 @@ def upsample_mask(mask: np.ndarray, u: int) -> np.ndarray:
     return mask.repeat(u, 0).repeat(u, 1).repeat(u, 2)
 
 
+def coarse_distances(unsafe: np.ndarray, resolution: float) -> np.ndarray:
+    """The map-grid distances [m] of an unsafe mask (outside it unsafe): as
+    `DistanceField.from_unsafe(unsafe, ..., resolution).distances`, with the cache-friendly
+    transform (`edt.exact_distances`)."""
+    return exact_distances(np.pad(np.asarray(unsafe, dtype=bool), 1, constant_values=True),
+                           float(resolution))[1:-1, 1:-1, 1:-1]
+
+
 def checked_field(unsafe: np.ndarray, origin: np.ndarray, resolution: float, inner_a: np.ndarray,
                   inner_b: np.ndarray, upsample: int, fine_unsafe: np.ndarray | None = None,
                   safe_spheres: tuple[np.ndarray, np.ndarray] | None = None,
-                  more_boxes: tuple = ()) -> DistanceField:
+                  more_boxes: tuple = (), coarse: np.ndarray | None = None) -> DistanceField:
     """The composite field (module doc) on a grid `upsample` times finer than `unsafe`.
 
     unsafe (nx, ny, nz) bool on the map grid, its low corner at origin (3,) [m], voxel edge
@@ -51,11 +60,15 @@ def checked_field(unsafe: np.ndarray, origin: np.ndarray, resolution: float, inn
     spheres whose map voxels were all made safe (the robot as it stands): every unsafe
     map-voxel centre is farther than R from such a sphere's centre, so no fine unsafe
     centre is nearer than R - |c - c_s| - (h_map - h_fine) to a fine centre c; that bound
-    raises the field where it is larger."""
+    raises the field where it is larger. coarse: `coarse_distances(unsafe, resolution)` when
+    the caller has it already (a second field on the same mask)."""
     if isinstance(upsample, bool) or not isinstance(upsample, int) or not 1 <= upsample <= 4:
         raise CompassInputError(f"upsample {upsample!r} is not allowed; use an integer 1..4")
     shape = np.asarray(unsafe.shape)
-    coarse = DistanceField.from_unsafe(unsafe, origin, resolution).distances
+    if coarse is None:
+        coarse = coarse_distances(unsafe, resolution)
+    elif coarse.shape != unsafe.shape:
+        raise CompassInputError(f"coarse has shape {coarse.shape}; the mask's shape {unsafe.shape} is required")
     fine_res = resolution / upsample
     out = None
     for n, (a, b) in enumerate([(inner_a, inner_b)] + list(more_boxes)):
@@ -68,7 +81,7 @@ def checked_field(unsafe: np.ndarray, origin: np.ndarray, resolution: float, inn
             raise CompassInputError(f"fine_unsafe has shape {fu.shape}; the inner box needs "
                                     f"{tuple(int(x) for x in upsample * (b - a))}")
         if fu.size and fu.any():
-            d_in = _distances(np.ascontiguousarray(fu), fine_res)
+            d_in = exact_distances(fu, fine_res)
         else:
             d_in = np.full(fu.shape, np.inf, np.float32)
         if out is None:
@@ -96,7 +109,7 @@ def _overlay(out, d_in, ia, fres):
                 out[I, J, K] = min(d_in[li, lj, lk], max(bnd + h_fine, out[I, J, K]))
 
 
-@njit(cache=True)
+@njit(cache=True, parallel=True)
 def _raise_in_spheres(out, origin, res, centres, radii, h):
     nx, ny, nz = out.shape
     for s in range(centres.shape[0]):
@@ -107,7 +120,7 @@ def _raise_in_spheres(out, origin, res, centres, radii, h):
         hi0 = min(int(math.ceil((centres[s, 0] + R - origin[0]) / res)), nx - 1)
         hi1 = min(int(math.ceil((centres[s, 1] + R - origin[1]) / res)), ny - 1)
         hi2 = min(int(math.ceil((centres[s, 2] + R - origin[2]) / res)), nz - 1)
-        for i in range(lo0, hi0 + 1):
+        for i in prange(lo0, hi0 + 1):  # one sphere at a time: each cell written by one thread
             dx = origin[0] + (i + 0.5) * res - centres[s, 0]
             for j in range(lo1, hi1 + 1):
                 dy = origin[1] + (j + 0.5) * res - centres[s, 1]
@@ -127,6 +140,11 @@ def _compose(coarse, d_in, ia, u, res):
     off = np.empty(u)
     for t in range(u):
         off[t] = (((t + 0.5) / u - 0.5) * res) ** 2
+    rad = np.empty((u, u, u))  # each fine centre's distance to its map voxel's centre
+    for ti in range(u):
+        for tj in range(u):
+            for tk in range(u):
+                rad[ti, tj, tk] = math.sqrt(off[ti] + off[tj] + off[tk])
     out = np.empty((nx * u, ny * u, nz * u), np.float32)
     mx, my, mz = d_in.shape
     for ci in prange(nx):
@@ -141,7 +159,7 @@ def _compose(coarse, d_in, ia, u, res):
                         J = cj * u + tj
                         for tk in range(u):
                             K = ck * u + tk
-                            v = base - math.sqrt(off[ti] + off[tj] + off[tk])
+                            v = base - rad[ti, tj, tk]
                             if v < 0.0:
                                 v = 0.0
                             if near:
