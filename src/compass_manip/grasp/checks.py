@@ -217,7 +217,7 @@ class GraspChecks:
             a = np.clip(occ.world_to_voxel((pts.min(0) - box_margin)[None])[0], 0, shape - 1)
             b = np.clip(occ.world_to_voxel((pts.max(0) + box_margin)[None])[0], 0, shape - 1) + 1
             unsafe, robot, _ = grasp_unsafe_box(occ, target, config.clearance, a, b, safe_spheres, extra_safe)
-            self._parts = parts = {"a": a, "b": b, "unsafe": unsafe, "robot": robot}
+            self._parts = parts = {"a": a, "b": b, "unsafe": unsafe, "robot": robot, "ik": {}}
         self.times["unsafe_s"] = time.perf_counter() - t
         t = time.perf_counter()
         ia, ib, base_box = exact_boxes(occ, a, b, target, spheres, cur, inner_margin, base_margin)
@@ -271,10 +271,10 @@ class GraspChecks:
 
     def ik_first(self, T: np.ndarray, q_current: np.ndarray):
         """All IK solutions of the TCP pose T from q_current, unchecked (`check`'s first step)."""
-        return self.ik.solve(T, "tcp", q_current, self.config.n_q7, None)
+        return self.ik.solve(T, "tcp", q_current, self.config.n_q7, None, cache=self._parts["ik"])
 
     def near(self, T: np.ndarray, q_ref: np.ndarray, validity) -> np.ndarray | None:
-        r = self.ik.solve(T, "tcp", q_ref, self.config.n_q7, validity, retry=False)
+        r = self.ik.solve(T, "tcp", q_ref, self.config.n_q7, validity, retry=False, cache=self._parts["ik"])
         if not r.success or np.max(np.abs(r.solutions[0] - q_ref)) > self.config.max_joint_step:
             return None
         return r.solutions[0]
