@@ -243,13 +243,17 @@ class GraspChecks:
         self.times["field_s"] = time.perf_counter() - t
         grid = DistanceGrid.from_distance_field(self.fine)
         vc = ValidityConfig(voxel_extent=config.voxel_extent)
-        self.full = ValidityChecker(spheres, grid=grid, config=vc)
+        # a second field reuses the first one's packed robot spheres (`with_grid`)
+        self.full = ValidityChecker(spheres, grid=grid, config=vc) if reuse is None else reuse.full.with_grid(grid)
         margin = config.plan_margin
         if q_current is not None:  # the robot stands at q_current: the path keeps the margin, or what the start has
             margin = float(min(margin, max(0.0, self.full.clearance(np.asarray(q_current, dtype=np.float64)) - 1e-4)))
         self.plan_margin = margin
-        self.plan = ValidityChecker(spheres, grid=grid, obstacles=target_box(target),
-                                    config=ValidityConfig(voxel_extent=config.voxel_extent, margin=margin))
+        if reuse is not None and reuse.plan_margin == margin:
+            self.plan = reuse.plan.with_grid(grid)
+        else:
+            self.plan = ValidityChecker(spheres, grid=grid, obstacles=target_box(target),
+                                        config=ValidityConfig(voxel_extent=config.voxel_extent, margin=margin))
 
     def valid(self, Q: np.ndarray) -> np.ndarray:
         """(N,) configurations free of the map and of self-collision."""
