@@ -27,15 +27,14 @@ import time
 import numpy as np
 from numba import njit, prange
 
-from ..errors import CompassInputError
 from ..geometry import make_T
 from ..mapping.distance import DistanceField
 from ..mapping.occupancy import OccupancyMap
 from ..motion.primitives import DistanceGrid, PrimitiveSet
 from ..motion.validity import ValidityChecker, ValidityConfig
 from ..robot.spheres import SphereModel
-from .carve import grasp_unsafe_box, target_carve
-from .field import checked_field, coarse_distances, fine_map_range, fine_unsafe_labels, upsample_mask
+from .carve import grasp_unsafe_box
+from .field import checked_field, coarse_distances, fine_labels_in_box, upsample_mask
 from .target import TargetModel
 
 #: Links of the base column (their neighbourhood gets the exact fine field: at the floor
@@ -166,25 +165,6 @@ def exact_boxes(occ: OccupancyMap, a: np.ndarray, b: np.ndarray, target: TargetM
     return ia, ib, base
 
 
-def _fine_labels(occ: OccupancyMap, fine_map: OccupancyMap, target: TargetModel, config, a: np.ndarray,
-                 b: np.ndarray, unsafe: np.ndarray, robot: np.ndarray):
-    """(lo, hi, labels): the fine map's unsafe labels (`field.fine_unsafe_labels`) over the
-    map-voxel range [lo, hi) where it overlaps the checked box [a, b) (labels None when it
-    does not); each label depends on its own cell only, so any inner box takes a slice."""
-    fa, fb, fu = fine_map_range(occ, fine_map)
-    u = config.field_upsample
-    if fu != u:
-        raise CompassInputError(f"fine_map is {fu} times finer than the map; field_upsample {u} needs {u}")
-    lo, hi = np.maximum(fa, a), np.minimum(fb, b)
-    if not np.all(hi > lo):
-        return lo, hi, None
-    sl = tuple(slice(int(lo[k] - a[k]), int(hi[k] - a[k])) for k in range(3))
-    fsl = tuple(slice(int(u * (lo[k] - fa[k])), int(u * (hi[k] - fa[k]))) for k in range(3))
-    fine_carve = target_carve(fine_map, target, config.clearance,  # a fine voxel diagonal: as a map voxel
-                              math.sqrt(3.0) * fine_map.resolution)[fsl]  # holding a point reaches
-    return lo, hi, fine_unsafe_labels(fine_map.state[fsl], unsafe[sl], robot[sl], fine_carve, u)
-
-
 def _hand_mask(spheres: SphereModel) -> np.ndarray:
     return np.isin(spheres.body_index, [spheres.link_names.index(k) for k in HAND_LINKS if k in spheres.link_names])
 
@@ -226,7 +206,7 @@ class GraspChecks:
         fine_unsafe = None
         if fine_map is not None:  # the fine local map's own labels where it reaches into the inner box
             if "fine_labels" not in parts:
-                parts["fine_labels"] = _fine_labels(occ, fine_map, target, config, a, b, unsafe, robot)
+                parts["fine_labels"] = fine_labels_in_box(occ, fine_map, target, config.clearance, u, a, b, unsafe, robot)
             flo, fhi, flab = parts["fine_labels"]
             fine_unsafe = upsample_mask(unsafe[ia[0]:ib[0], ia[1]:ib[1], ia[2]:ib[2]], u)
             lo, hi = np.maximum(flo, a + ia), np.minimum(fhi, a + ib)

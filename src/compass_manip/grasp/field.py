@@ -29,6 +29,7 @@ from numba import njit, prange
 from ..errors import CompassInputError
 from ..mapping.distance import DistanceField
 from ..mapping.occupancy import MapConfig, OccupancyMap, VoxelState
+from .carve import target_carve
 from .edt import exact_distances
 
 
@@ -223,3 +224,24 @@ def fine_unsafe_labels(state: np.ndarray, coarse_unsafe: np.ndarray, coarse_robo
     occ_ = (st == VoxelState.OCCUPIED) & ~fine_carve & ~upsample_mask(coarse_robot_safe, u)
     unk = (st == VoxelState.UNKNOWN) & ~fine_carve & upsample_mask(coarse_unsafe, u)
     return occ_ | unk
+
+
+def fine_labels_in_box(occ: OccupancyMap, fine_map: OccupancyMap, target, clearance: float, u: int,
+                       a: np.ndarray, b: np.ndarray, unsafe: np.ndarray, robot: np.ndarray):
+    """(lo, hi, labels): the fine map's unsafe labels (`field.fine_unsafe_labels`) over the
+    map-voxel range [lo, hi) where it overlaps the checked box [a, b) (labels None when it
+    does not); each label depends on its own cell only, so any inner box takes a slice.
+    target: the `TargetModel` (its carve on the fine map, `carve.target_carve`); clearance [m]
+    of that carve; u the checked field's upsampling; unsafe / robot: the box's masks
+    (`carve.grasp_unsafe_box`)."""
+    fa, fb, fu = fine_map_range(occ, fine_map)
+    if fu != u:
+        raise CompassInputError(f"fine_map is {fu} times finer than the map; field_upsample {u} needs {u}")
+    lo, hi = np.maximum(fa, a), np.minimum(fb, b)
+    if not np.all(hi > lo):
+        return lo, hi, None
+    sl = tuple(slice(int(lo[k] - a[k]), int(hi[k] - a[k])) for k in range(3))
+    fsl = tuple(slice(int(u * (lo[k] - fa[k])), int(u * (hi[k] - fa[k]))) for k in range(3))
+    fine_carve = target_carve(fine_map, target, clearance,  # a fine voxel diagonal: as a map voxel
+                              math.sqrt(3.0) * fine_map.resolution)[fsl]  # holding a point reaches
+    return lo, hi, fine_unsafe_labels(fine_map.state[fsl], unsafe[sl], robot[sl], fine_carve, u)
