@@ -89,3 +89,40 @@ def test_no_ik_anywhere_gives_the_same_verdict_without_the_fallback_field():
     assert on.failure == off.failure == GraspFailure.NO_IK
     assert on.rejections == off.rejections and on.rejections.get(Rejection.NO_IK, 0) > 0
     assert "exact_field_s" not in on.stage_times
+
+
+def _ordered_reference(S, q_ref, tol):
+    """The IK dedupe as it was: a Python loop over the kept solutions."""
+    order = np.argsort(np.linalg.norm(S - q_ref, axis=1), kind="stable")
+    keep = []
+    for i in order:
+        if all(np.max(np.abs(S[i] - S[k])) > tol for k in keep):
+            keep.append(int(i))
+    return keep
+
+
+def test_ik_sweep_cache_and_dedupe_give_the_same_solutions():
+    from compass_manip.robot import ik as ikmod
+    spheres = panda_sphere_model()
+    ik = PandaIK(spheres.kinematics)
+    q0 = np.asarray(Q_HOME, dtype=np.float64)
+    T = spheres.kinematics.T_world_tcp(q0 + np.array([0.3, 0.2, -0.1, 0.3, 0.2, -0.2, 0.4]))
+    plain = ik.solve(T, "tcp", q0, 24, None)
+    cache: dict = {}
+    first = ik.solve(T, "tcp", q0, 24, None, cache=cache)
+    again = ik.solve(T, "tcp", q0, 24, None, cache=cache)
+    assert len(cache) == 1 and len(plain.solutions) > 1
+    for r in (first, again):
+        assert np.array_equal(r.solutions, plain.solutions) and np.array_equal(r.pos_err, plain.pos_err)
+
+    class Half:  # a validity filter applied after the cached sweep, as without the cache
+        def are_valid(self, Q):
+            return Q[:, 0] > np.median(Q[:, 0])
+
+    assert np.array_equal(ik.solve(T, "tcp", q0, 24, Half(), cache=cache).solutions,
+                          ik.solve(T, "tcp", q0, 24, Half()).solutions)
+    rng = np.random.default_rng(2)
+    S = np.repeat(rng.uniform(-1, 1, (12, 7)), 3, axis=0) + rng.normal(0, 1e-4, (36, 7))  # near-duplicates
+    q = rng.uniform(-1, 1, 7)
+    got = ikmod._ordered(S, np.zeros(36), np.zeros(36), np.eye(4)[None].repeat(36, 0), q, 1e-3, "tcp", None)
+    assert np.array_equal(got.solutions, S[_ordered_reference(S, q, 1e-3)]) and len(got.solutions) == 12
