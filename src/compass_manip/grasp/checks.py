@@ -27,15 +27,14 @@ import time
 import numpy as np
 from numba import njit, prange
 
-from ..errors import CompassInputError
 from ..geometry import make_T
 from ..mapping.distance import DistanceField
 from ..mapping.occupancy import OccupancyMap
 from ..motion.primitives import DistanceGrid, PrimitiveSet
 from ..motion.validity import ValidityChecker, ValidityConfig
 from ..robot.spheres import SphereModel
-from .carve import grasp_unsafe_box, target_carve
-from .field import checked_field, fine_map_range, fine_unsafe_labels, upsample_mask
+from .carve import grasp_unsafe_box
+from .field import checked_field, coarse_distances, fine_labels_in_box, upsample_mask
 from .target import TargetModel
 
 #: Links of the base column (their neighbourhood gets the exact fine field: at the floor
@@ -178,52 +177,63 @@ class GraspChecks:
                  safe_spheres: tuple[np.ndarray, np.ndarray], extra_safe: np.ndarray | None = None,
                  q_current: np.ndarray | None = None, box_margin: float = 0.25,
                  fine_map: OccupancyMap | None = None, inner_margin: float = 0.2, base_margin: float = 0.05,
-                 exact_everywhere: bool = False):
+                 exact_everywhere: bool = False, reuse: GraspChecks | None = None):
+        """reuse: a GraspChecks built with the same arguments (all but exact_everywhere): its
+        unsafe box, fine labels and map-grid transform are taken as they are (the exact
+        fallback's second field needs only its own fine transform)."""
         self.ik, self.target, self.config = ik, target, config
         self.times: dict[str, float] = {}
         t = time.perf_counter()
-        pts = target.points
-        if q_current is not None:  # the box holds the robot as it stands and the target
-            pts = np.vstack([pts, spheres.sphere_centers(np.asarray(q_current, dtype=np.float64)[None])[0]])
-        shape = np.asarray(occ.shape)
-        a = np.clip(occ.world_to_voxel((pts.min(0) - box_margin)[None])[0], 0, shape - 1)
-        b = np.clip(occ.world_to_voxel((pts.max(0) + box_margin)[None])[0], 0, shape - 1) + 1
-        unsafe, robot, _ = grasp_unsafe_box(occ, target, config.clearance, a, b, safe_spheres, extra_safe)
-        self.times["unsafe_s"] = time.perf_counter() - t
-        t = time.perf_counter()
         u = config.field_upsample
         cur = None if q_current is None else spheres.sphere_centers(np.asarray(q_current, dtype=np.float64)[None])[0]
+        if reuse is not None:
+            self._parts = parts = reuse._parts
+            a, b, unsafe, robot = parts["a"], parts["b"], parts["unsafe"], parts["robot"]
+        else:
+            pts = target.points
+            if cur is not None:  # the box holds the robot as it stands and the target
+                pts = np.vstack([pts, cur])
+            shape = np.asarray(occ.shape)
+            a = np.clip(occ.world_to_voxel((pts.min(0) - box_margin)[None])[0], 0, shape - 1)
+            b = np.clip(occ.world_to_voxel((pts.max(0) + box_margin)[None])[0], 0, shape - 1) + 1
+            unsafe, robot, _ = grasp_unsafe_box(occ, target, config.clearance, a, b, safe_spheres, extra_safe)
+            self._parts = parts = {"a": a, "b": b, "unsafe": unsafe, "robot": robot, "ik": {}}
+        self.times["unsafe_s"] = time.perf_counter() - t
+        t = time.perf_counter()
         ia, ib, base_box = exact_boxes(occ, a, b, target, spheres, cur, inner_margin, base_margin)
         if exact_everywhere:  # the whole box exact (slower)
             ia, ib, base_box = np.zeros(3, np.int64), b - a, None
         fine_unsafe = None
         if fine_map is not None:  # the fine local map's own labels where it reaches into the inner box
-            fa, fb, fu = fine_map_range(occ, fine_map)
-            if fu != u:
-                raise CompassInputError(f"fine_map is {fu} times finer than the map; field_upsample {u} needs {u}")
+            if "fine_labels" not in parts:
+                parts["fine_labels"] = fine_labels_in_box(occ, fine_map, target, config.clearance, u, a, b, unsafe, robot)
+            flo, fhi, flab = parts["fine_labels"]
             fine_unsafe = upsample_mask(unsafe[ia[0]:ib[0], ia[1]:ib[1], ia[2]:ib[2]], u)
-            lo, hi = np.maximum(fa, a + ia), np.minimum(fb, a + ib)
-            if np.all(hi > lo):
-                sl = tuple(slice(int(lo[k] - a[k]), int(hi[k] - a[k])) for k in range(3))
-                fsl = tuple(slice(int(u * (lo[k] - fa[k])), int(u * (hi[k] - fa[k]))) for k in range(3))
+            lo, hi = np.maximum(flo, a + ia), np.minimum(fhi, a + ib)
+            if flab is not None and np.all(hi > lo):
+                src = tuple(slice(int(u * (lo[k] - flo[k])), int(u * (hi[k] - flo[k]))) for k in range(3))
                 dst = tuple(slice(int(u * (lo[k] - a[k] - ia[k])), int(u * (hi[k] - a[k] - ia[k]))) for k in range(3))
-                fine_carve = target_carve(fine_map, target, config.clearance,  # a fine voxel diagonal: as a map voxel
-                                          math.sqrt(3.0) * fine_map.resolution)[fsl]  # holding a point reaches
-                fine_unsafe[dst] = fine_unsafe_labels(fine_map.state[fsl], unsafe[sl], robot[sl], fine_carve, u)
+                fine_unsafe[dst] = flab[src]
         own = None if cur is None else (cur, spheres.radii + config.robot_clearance)
         boxes = () if base_box is None else (base_box,)
+        if "coarse" not in parts:
+            parts["coarse"] = coarse_distances(unsafe, occ.resolution)
         self.fine = checked_field(unsafe, occ.grid_min + a * occ.resolution, occ.resolution, ia, ib, u, fine_unsafe,
-                                  own, boxes)
+                                  own, boxes, coarse=parts["coarse"])
         self.times["field_s"] = time.perf_counter() - t
         grid = DistanceGrid.from_distance_field(self.fine)
         vc = ValidityConfig(voxel_extent=config.voxel_extent)
-        self.full = ValidityChecker(spheres, grid=grid, config=vc)
+        # a second field reuses the first one's packed robot spheres (`with_grid`)
+        self.full = ValidityChecker(spheres, grid=grid, config=vc) if reuse is None else reuse.full.with_grid(grid)
         margin = config.plan_margin
         if q_current is not None:  # the robot stands at q_current: the path keeps the margin, or what the start has
             margin = float(min(margin, max(0.0, self.full.clearance(np.asarray(q_current, dtype=np.float64)) - 1e-4)))
         self.plan_margin = margin
-        self.plan = ValidityChecker(spheres, grid=grid, obstacles=target_box(target),
-                                    config=ValidityConfig(voxel_extent=config.voxel_extent, margin=margin))
+        if reuse is not None and reuse.plan_margin == margin:
+            self.plan = reuse.plan.with_grid(grid)
+        else:
+            self.plan = ValidityChecker(spheres, grid=grid, obstacles=target_box(target),
+                                        config=ValidityConfig(voxel_extent=config.voxel_extent, margin=margin))
 
     def valid(self, Q: np.ndarray) -> np.ndarray:
         """(N,) configurations free of the map and of self-collision."""
@@ -243,18 +253,24 @@ class GraspChecks:
         pts = (self.target.points[None] + steps[:, None, None] * np.array([0.0, 0.0, 1.0])).reshape(-1, 3)
         return bool(np.all(self.fine.distance_at(pts) >= 0.5 * self.fine.resolution))
 
+    def ik_first(self, T: np.ndarray, q_current: np.ndarray):
+        """All IK solutions of the TCP pose T from q_current, unchecked (`check`'s first step)."""
+        return self.ik.solve(T, "tcp", q_current, self.config.n_q7, None, cache=self._parts["ik"])
+
     def near(self, T: np.ndarray, q_ref: np.ndarray, validity) -> np.ndarray | None:
-        r = self.ik.solve(T, "tcp", q_ref, self.config.n_q7, validity, retry=False)
+        r = self.ik.solve(T, "tcp", q_ref, self.config.n_q7, validity, retry=False, cache=self._parts["ik"])
         if not r.success or np.max(np.abs(r.solutions[0] - q_ref)) > self.config.max_joint_step:
             return None
         return r.solutions[0]
 
-    def check(self, T: np.ndarray, q_current: np.ndarray, pre: float, lift: float, lift_clear: bool):
+    def check(self, T: np.ndarray, q_current: np.ndarray, pre: float, lift: float, lift_clear: bool,
+              solved=None):
         """((q_grasp, q_pregrasp, q_lift), None) for one candidate pose with its pre-grasp
         distance and lift height [m] (the hand already checked on the fine field), or
-        (None, the `select.Rejection` name)."""
+        (None, the `select.Rejection` name). solved: the IK result of T from q_current
+        (`ik_first`), when the caller has it (it does not depend on the map)."""
         config = self.config
-        r = self.ik.solve(T, "tcp", q_current, config.n_q7, None)
+        r = self.ik_first(T, q_current) if solved is None else solved
         if not r.success:
             return None, "NO_IK"
         free = self.valid(r.solutions)

@@ -27,8 +27,10 @@ import numpy as np
 from numba import njit, prange
 
 from ..errors import CompassInputError
-from ..mapping.distance import DistanceField, _distances
+from ..mapping.distance import DistanceField
 from ..mapping.occupancy import MapConfig, OccupancyMap, VoxelState
+from .carve import target_carve
+from .edt import exact_distances
 
 
 def upsample_mask(mask: np.ndarray, u: int) -> np.ndarray:
@@ -36,10 +38,18 @@ def upsample_mask(mask: np.ndarray, u: int) -> np.ndarray:
     return mask.repeat(u, 0).repeat(u, 1).repeat(u, 2)
 
 
+def coarse_distances(unsafe: np.ndarray, resolution: float) -> np.ndarray:
+    """The map-grid distances [m] of an unsafe mask (outside it unsafe): as
+    `DistanceField.from_unsafe(unsafe, ..., resolution).distances`, with the cache-friendly
+    transform (`edt.exact_distances`)."""
+    return exact_distances(np.pad(np.asarray(unsafe, dtype=bool), 1, constant_values=True),
+                           float(resolution))[1:-1, 1:-1, 1:-1]
+
+
 def checked_field(unsafe: np.ndarray, origin: np.ndarray, resolution: float, inner_a: np.ndarray,
                   inner_b: np.ndarray, upsample: int, fine_unsafe: np.ndarray | None = None,
                   safe_spheres: tuple[np.ndarray, np.ndarray] | None = None,
-                  more_boxes: tuple = ()) -> DistanceField:
+                  more_boxes: tuple = (), coarse: np.ndarray | None = None) -> DistanceField:
     """The composite field (module doc) on a grid `upsample` times finer than `unsafe`.
 
     unsafe (nx, ny, nz) bool on the map grid, its low corner at origin (3,) [m], voxel edge
@@ -51,11 +61,15 @@ def checked_field(unsafe: np.ndarray, origin: np.ndarray, resolution: float, inn
     spheres whose map voxels were all made safe (the robot as it stands): every unsafe
     map-voxel centre is farther than R from such a sphere's centre, so no fine unsafe
     centre is nearer than R - |c - c_s| - (h_map - h_fine) to a fine centre c; that bound
-    raises the field where it is larger."""
+    raises the field where it is larger. coarse: `coarse_distances(unsafe, resolution)` when
+    the caller has it already (a second field on the same mask)."""
     if isinstance(upsample, bool) or not isinstance(upsample, int) or not 1 <= upsample <= 4:
         raise CompassInputError(f"upsample {upsample!r} is not allowed; use an integer 1..4")
     shape = np.asarray(unsafe.shape)
-    coarse = DistanceField.from_unsafe(unsafe, origin, resolution).distances
+    if coarse is None:
+        coarse = coarse_distances(unsafe, resolution)
+    elif coarse.shape != unsafe.shape:
+        raise CompassInputError(f"coarse has shape {coarse.shape}; the mask's shape {unsafe.shape} is required")
     fine_res = resolution / upsample
     out = None
     for n, (a, b) in enumerate([(inner_a, inner_b)] + list(more_boxes)):
@@ -68,7 +82,7 @@ def checked_field(unsafe: np.ndarray, origin: np.ndarray, resolution: float, inn
             raise CompassInputError(f"fine_unsafe has shape {fu.shape}; the inner box needs "
                                     f"{tuple(int(x) for x in upsample * (b - a))}")
         if fu.size and fu.any():
-            d_in = _distances(np.ascontiguousarray(fu), fine_res)
+            d_in = exact_distances(fu, fine_res)
         else:
             d_in = np.full(fu.shape, np.inf, np.float32)
         if out is None:
@@ -96,22 +110,28 @@ def _overlay(out, d_in, ia, fres):
                 out[I, J, K] = min(d_in[li, lj, lk], max(bnd + h_fine, out[I, J, K]))
 
 
-@njit(cache=True)
+@njit(cache=True, parallel=True)
 def _raise_in_spheres(out, origin, res, centres, radii, h):
+    """out <- max(out, R - |c - c_s| - h) inside each sphere; in parallel over x slices, each
+    slice taking every sphere (max is exact and order-free: the same field as one by one)."""
     nx, ny, nz = out.shape
-    for s in range(centres.shape[0]):
-        R = radii[s]
-        lo0 = max(int(math.floor((centres[s, 0] - R - origin[0]) / res)), 0)
-        lo1 = max(int(math.floor((centres[s, 1] - R - origin[1]) / res)), 0)
-        lo2 = max(int(math.floor((centres[s, 2] - R - origin[2]) / res)), 0)
-        hi0 = min(int(math.ceil((centres[s, 0] + R - origin[0]) / res)), nx - 1)
-        hi1 = min(int(math.ceil((centres[s, 1] + R - origin[1]) / res)), ny - 1)
-        hi2 = min(int(math.ceil((centres[s, 2] + R - origin[2]) / res)), nz - 1)
-        for i in range(lo0, hi0 + 1):
+    S = centres.shape[0]
+    lo = np.empty((S, 3), np.int64)
+    hi = np.empty((S, 3), np.int64)
+    n = np.array([nx, ny, nz])
+    for s in range(S):
+        for a in range(3):
+            lo[s, a] = max(int(math.floor((centres[s, a] - radii[s] - origin[a]) / res)), 0)
+            hi[s, a] = min(int(math.ceil((centres[s, a] + radii[s] - origin[a]) / res)), n[a] - 1)
+    for i in prange(nx):
+        for s in range(S):
+            if i < lo[s, 0] or i > hi[s, 0]:
+                continue
+            R = radii[s]
             dx = origin[0] + (i + 0.5) * res - centres[s, 0]
-            for j in range(lo1, hi1 + 1):
+            for j in range(lo[s, 1], hi[s, 1] + 1):
                 dy = origin[1] + (j + 0.5) * res - centres[s, 1]
-                for k in range(lo2, hi2 + 1):
+                for k in range(lo[s, 2], hi[s, 2] + 1):
                     dz = origin[2] + (k + 0.5) * res - centres[s, 2]
                     v = R - math.sqrt(dx * dx + dy * dy + dz * dz) - h
                     if v > out[i, j, k]:
@@ -127,6 +147,11 @@ def _compose(coarse, d_in, ia, u, res):
     off = np.empty(u)
     for t in range(u):
         off[t] = (((t + 0.5) / u - 0.5) * res) ** 2
+    rad = np.empty((u, u, u))  # each fine centre's distance to its map voxel's centre
+    for ti in range(u):
+        for tj in range(u):
+            for tk in range(u):
+                rad[ti, tj, tk] = math.sqrt(off[ti] + off[tj] + off[tk])
     out = np.empty((nx * u, ny * u, nz * u), np.float32)
     mx, my, mz = d_in.shape
     for ci in prange(nx):
@@ -141,7 +166,7 @@ def _compose(coarse, d_in, ia, u, res):
                         J = cj * u + tj
                         for tk in range(u):
                             K = ck * u + tk
-                            v = base - math.sqrt(off[ti] + off[tj] + off[tk])
+                            v = base - rad[ti, tj, tk]
                             if v < 0.0:
                                 v = 0.0
                             if near:
@@ -199,3 +224,24 @@ def fine_unsafe_labels(state: np.ndarray, coarse_unsafe: np.ndarray, coarse_robo
     occ_ = (st == VoxelState.OCCUPIED) & ~fine_carve & ~upsample_mask(coarse_robot_safe, u)
     unk = (st == VoxelState.UNKNOWN) & ~fine_carve & upsample_mask(coarse_unsafe, u)
     return occ_ | unk
+
+
+def fine_labels_in_box(occ: OccupancyMap, fine_map: OccupancyMap, target, clearance: float, u: int,
+                       a: np.ndarray, b: np.ndarray, unsafe: np.ndarray, robot: np.ndarray):
+    """(lo, hi, labels): the fine map's unsafe labels (`field.fine_unsafe_labels`) over the
+    map-voxel range [lo, hi) where it overlaps the checked box [a, b) (labels None when it
+    does not); each label depends on its own cell only, so any inner box takes a slice.
+    target: the `TargetModel` (its carve on the fine map, `carve.target_carve`); clearance [m]
+    of that carve; u the checked field's upsampling; unsafe / robot: the box's masks
+    (`carve.grasp_unsafe_box`)."""
+    fa, fb, fu = fine_map_range(occ, fine_map)
+    if fu != u:
+        raise CompassInputError(f"fine_map is {fu} times finer than the map; field_upsample {u} needs {u}")
+    lo, hi = np.maximum(fa, a), np.minimum(fb, b)
+    if not np.all(hi > lo):
+        return lo, hi, None
+    sl = tuple(slice(int(lo[k] - a[k]), int(hi[k] - a[k])) for k in range(3))
+    fsl = tuple(slice(int(u * (lo[k] - fa[k])), int(u * (hi[k] - fa[k]))) for k in range(3))
+    fine_carve = target_carve(fine_map, target, clearance,  # a fine voxel diagonal: as a map voxel
+                              math.sqrt(3.0) * fine_map.resolution)[fsl]  # holding a point reaches
+    return lo, hi, fine_unsafe_labels(fine_map.state[fsl], unsafe[sl], robot[sl], fine_carve, u)

@@ -372,7 +372,10 @@ def select_grasp(target: TargetModel, occ: OccupancyMap, task: Task, q_current: 
                 if out is not None:
                     return out, n_free_ik
                 feasible = []
-            qs, why = chk.check(cands.T_world_tcp[idx], q_current, pre_of[idx], lift_of[idx], lift_clear[lift_of[idx]])
+            if idx not in solved:  # the first IK does not depend on the field: once per candidate
+                solved[idx] = chk.ik_first(cands.T_world_tcp[idx], q_current)
+            qs, why = chk.check(cands.T_world_tcp[idx], q_current, pre_of[idx], lift_of[idx], lift_clear[lift_of[idx]],
+                                solved[idx])
             why = None if why is None else Rejection[why]
             if why is not None:
                 ik_rej[why] += 1
@@ -391,13 +394,15 @@ def select_grasp(target: TargetModel, occ: OccupancyMap, task: Task, q_current: 
                 return out, n_free_ik
         return None, n_free_ik
 
+    solved: dict = {}  # candidate index -> its first IK result (shared by both fields)
     out, n_free_ik = search(checks)
-    if out is None and config.exact_fallback:
+    if out is None and config.exact_fallback and set(ik_rej) != {Rejection.NO_IK}:
         # the field is exact only near the target, the wrist and the base: before giving up,
-        # the arm's checks and the path again on a field exact everywhere in the box
+        # the arm's checks and the path again on a field exact everywhere in the box (not
+        # when every candidate had no IK solution at all: that does not depend on the field)
         t_ex = time.perf_counter()
         checks = GraspChecks(occ, target, spheres, ik, config, (safe_c, safe_r), extra_safe, q_current,
-                             fine_map=fine_map, exact_everywhere=True)
+                             fine_map=fine_map, exact_everywhere=True, reuse=checks)
         stages["exact_field_s"] = time.perf_counter() - t_ex
         ik_rej.clear()
         out, n_free_ik = search(checks)

@@ -153,20 +153,22 @@ class PandaIK:
         self.T_hand_link8 = inv_T(L[self.kin.hand_index]) @ L[i8]
 
     def solve(self, T_world_frame: np.ndarray, frame: str, q_ref: np.ndarray,
-              n_q7: int | None = None, validity=None, retry: bool = True) -> IKResult:
+              n_q7: int | None = None, validity=None, retry: bool = True, cache: dict | None = None) -> IKResult:
         """All distinct IK solutions within limits putting `frame` ('tcp', 'cam', 'hand') at
         T_world_frame, ordered by Euclidean joint distance to q_ref [rad]. validity: anything
         with `are_valid(Q (N,7)) -> (N,) bool` (e.g. motion.validity.ValidityChecker) to keep
-        only collision-free solutions. retry: sweep n_q7_retry values of q7 if n_q7 found none."""
+        only collision-free solutions. retry: sweep n_q7_retry values of q7 if n_q7 found none.
+        cache: a dict the caller keeps; the q7 sweeps (before `validity`) are memoised in it by
+        pose, q_ref and n_q7, so asking again (e.g. against another map) repeats no sweep."""
         T_world_frame = check_rigid(T_world_frame, "T_world_frame")
         q_ref = check_q(q_ref, "q_ref")
         config = self.config
         n_q7 = config.n_q7 if n_q7 is None else _whole(n_q7, "n_q7", 1, 1000)
         T_world_hand = T_world_frame @ inv_T(self.kin.T_hand_frame(frame))
         T_base_flange = self.T_base_world @ T_world_hand @ self.T_hand_link8
-        S, pe, re, n_cand = self._sweep(T_world_hand, T_base_flange, q_ref, n_q7)
+        S, pe, re, n_cand = self._sweep_cached(T_world_hand, T_base_flange, q_ref, n_q7, cache)
         if retry and S.shape[0] == 0 and config.n_q7_retry > n_q7:
-            S, pe, re, n_cand = self._sweep(T_world_hand, T_base_flange, q_ref, config.n_q7_retry)
+            S, pe, re, n_cand = self._sweep_cached(T_world_hand, T_base_flange, q_ref, config.n_q7_retry, cache)
         failure = (None if len(S) else
                    IKFailure.NOT_CONVERGED if n_cand else IKFailure.NO_ANALYTIC_SOLUTION)
         if validity is not None and len(S):
@@ -175,6 +177,14 @@ class PandaIK:
             failure = None if len(S) else IKFailure.IN_COLLISION
         T = np.broadcast_to(T_world_frame, (len(S), 4, 4))
         return _ordered(S, pe, re, T, q_ref, config.dedupe_tol, frame, failure)
+
+    def _sweep_cached(self, T_world_hand, T_base_flange, q_ref, n_q7, cache):
+        if cache is None:
+            return self._sweep(T_world_hand, T_base_flange, q_ref, n_q7)
+        key = (T_world_hand.tobytes(), q_ref.tobytes(), n_q7)
+        if key not in cache:
+            cache[key] = self._sweep(T_world_hand, T_base_flange, q_ref, n_q7)
+        return cache[key]
 
     def _sweep(self, T_world_hand, T_base_flange, q_ref, n_q7):
         """Refined analytic solutions (k,7), pos_err (k,), rot_err (k,) over a q7 sweep, and
@@ -207,10 +217,15 @@ def _whole(value, name: str, low: int, high: int) -> int:
 
 def _ordered(S, pe, re, T, q_ref, tol, frame, failure) -> IKResult:
     order = np.argsort(np.linalg.norm(S - q_ref, axis=1), kind="stable")
+    # greedy dedupe in that order: a solution is kept unless a kept one is within tol (max
+    # joint difference, symmetric); one pairwise matrix instead of a Python loop over pairs
+    near = np.max(np.abs(S[:, None, :] - S[None, :, :]), axis=2) <= tol if len(S) else np.zeros((0, 0), bool)
     keep: list[int] = []
+    blocked = np.zeros(len(S), dtype=bool)
     for i in order:
-        if all(np.max(np.abs(S[i] - S[k])) > tol for k in keep):
+        if not blocked[i]:
             keep.append(int(i))
+            blocked |= near[i]
     k = np.array(keep, np.int64)
     return IKResult(S[k].reshape(-1, 7), pe[k], re[k], np.array(T)[k].reshape(-1, 4, 4), frame, failure)
 
