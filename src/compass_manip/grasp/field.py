@@ -27,10 +27,9 @@ import numpy as np
 from numba import njit, prange
 
 from ..errors import CompassInputError
-from ..mapping.distance import DistanceField
+from ..mapping.distance import DistanceField, _distances
 from ..mapping.occupancy import MapConfig, OccupancyMap, VoxelState
 from .carve import target_carve
-from .edt import exact_distances
 
 
 def upsample_mask(mask: np.ndarray, u: int) -> np.ndarray:
@@ -41,8 +40,8 @@ def upsample_mask(mask: np.ndarray, u: int) -> np.ndarray:
 def coarse_distances(unsafe: np.ndarray, resolution: float) -> np.ndarray:
     """The map-grid distances [m] of an unsafe mask (outside it unsafe): as
     `DistanceField.from_unsafe(unsafe, ..., resolution).distances`, with the cache-friendly
-    transform (`edt.exact_distances`)."""
-    return exact_distances(np.pad(np.asarray(unsafe, dtype=bool), 1, constant_values=True),
+    transform (`mapping.distance._distances`)."""
+    return _distances(np.pad(np.asarray(unsafe, dtype=bool), 1, constant_values=True),
                            float(resolution))[1:-1, 1:-1, 1:-1]
 
 
@@ -82,7 +81,7 @@ def checked_field(unsafe: np.ndarray, origin: np.ndarray, resolution: float, inn
             raise CompassInputError(f"fine_unsafe has shape {fu.shape}; the inner box needs "
                                     f"{tuple(int(x) for x in upsample * (b - a))}")
         if fu.size and fu.any():
-            d_in = exact_distances(fu, fine_res)
+            d_in = _distances(fu, fine_res)
         else:
             d_in = np.full(fu.shape, np.inf, np.float32)
         if out is None:
