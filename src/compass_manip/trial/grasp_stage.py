@@ -70,6 +70,20 @@ class GraspStageResult:
             else float(self.outcome.hold_height)
 
 
+def assumed_unknown_free(occ, config, spheres, q_home: np.ndarray, task, rules) -> np.ndarray:
+    """(nx, ny, nz) bool: the unknown voxels of occ the grasp stage and INSPECT's hypotheses
+    take as free besides the robot's own space: with `config.near_body_free` those links 0-4
+    sweep near q_home (`sim.grasp_only.near_body_unknown`) farther than `near_body_halo` [m]
+    from anything seen occupied; with `config.outside_free` and the method's rules (a
+    `WorldModelConfig`, or None) the unknown space its own checker takes as free."""
+    out = np.zeros(occ.shape, bool)
+    if config.near_body_free:
+        out |= method_safe_voxels(occ, out, near_body_unknown(occ, spheres, q_home), config.near_body_halo)
+    if config.outside_free and rules is not None:
+        out |= method_safe_voxels(occ, out, assumed_free_mask(occ, task, rules), rules.obstacle_halo)
+    return out
+
+
 def run_grasp_stage(world, occupancy, detection, task, q_current: np.ndarray, moved: list[np.ndarray],
                     config, rng: np.random.Generator, planning_charge_s: float | None,
                     grasp_map=None, pinned=None, method_rules=None) -> GraspStageResult:
@@ -101,12 +115,7 @@ def run_grasp_stage(world, occupancy, detection, task, q_current: np.ndarray, mo
         Q = Q[:: max(1, len(Q) // config.max_moved_configs)]
         mark_configs(extra, occupancy, spheres, Q, config.moved_margin)
         extra &= occupancy.state != VoxelState.OCCUPIED
-    if config.near_body_free:
-        extra |= method_safe_voxels(occupancy, np.zeros(occupancy.shape, bool), near_body_unknown(
-            occupancy, spheres, np.asarray(world.robot.q_home)), config.near_body_halo)
-    if method_rules is not None and config.outside_free:  # the exploration's own rule for unknown space
-        extra = method_safe_voxels(occupancy, extra, assumed_free_mask(occupancy, task, method_rules),
-                                   method_rules.obstacle_halo)
+    extra |= assumed_unknown_free(occupancy, config, spheres, np.asarray(world.robot.q_home), task, method_rules)
     fine, t_fine = None, 0.0
     if grasp_map is not None and config.fine_map and grasp_map.frames:
         t0 = time.perf_counter()

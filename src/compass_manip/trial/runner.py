@@ -20,15 +20,13 @@ from ..perception.self_mask import SelfMaskedDetector
 from ..robot.kinematics import PandaKinematics
 from ..robot.spheres import panda_sphere_model
 from ..sim.certify import certified_scene
-from ..sim.grasp_only import near_body_unknown
 from ..sim.levels import check_level
 from ..sim.oracle import OracleSegmentationDetector, detection_is_target, target_surroundings
 from ..sim.world import World
 from .config import GRASP_ABLATION_METHOD, ORACLE_DETECTOR, TrialConfig
-from .grasp_stage import run_grasp_stage
+from .grasp_stage import assumed_unknown_free, run_grasp_stage
 from .grasp_map import GraspMap, GraspWorld
 from .grasp_scan import NearFieldScanner
-from ..exploration.world_model import assumed_free_mask, method_safe_voxels
 from .grasp_views import GraspInspector
 from .inspect import plan_inspect_view
 from .machine import MachineOutcome, TrialMachine
@@ -82,22 +80,6 @@ class TrialRun:
     metrics: MetricsRecorder
 
 
-def _grasp_assumptions(config, spheres, q_home, task, rules):
-    """`occ -> mask` of the unknown space INSPECT's hypotheses take as free besides the
-    robot's own (`GraspTrialConfig.near_body_free` / `outside_free`), or None."""
-    if not config.near_body_free and not config.outside_free:
-        return None
-
-    def assumed(occ):
-        out = np.zeros(occ.shape, bool)
-        if config.near_body_free:
-            out |= method_safe_voxels(occ, out, near_body_unknown(occ, spheres, q_home), config.near_body_halo)
-        if config.outside_free:
-            out |= method_safe_voxels(occ, out, assumed_free_mask(occ, task, rules), rules.obstacle_halo)
-        return out
-    return assumed
-
-
 def run_trial(spec: TrialSpec, config: TrialConfig | None = None, progress=None) -> TrialResult:
     """Run one trial and return its metrics."""
     return run_trial_full(spec, config, progress).result
@@ -141,7 +123,9 @@ def run_trial_full(spec: TrialSpec, config: TrialConfig | None = None, progress=
 
         if config.grasp.inspect.mode == "grasp":  # the grasp hypotheses' unknown voxels (trial.grasp_views)
             spheres, q_home = panda_sphere_model(world.robot), np.asarray(world.robot.q_home)
-            near = _grasp_assumptions(config.grasp, spheres, q_home, task, method.world.config)
+            rules = method.world.config
+            near = None if not (config.grasp.near_body_free or config.grasp.outside_free) else (
+                lambda occ: assumed_unknown_free(occ, config.grasp, spheres, q_home, task, rules))
             wm = method.world if gmap is None else GraspWorld(
                 gmap, method.world, config.grasp.fine_margin if config.grasp.fine_map else None,
                 config.grasp.select.field_upsample)
