@@ -81,11 +81,12 @@ class GraspTrialConfig:
     plan_via_home: when no path to the pre-grasps plans directly, the selection tries one via
     the home posture (`select_grasp(q_via=...)`); near_body_halo [m]: the near-body
     assumption leaves out unknown voxels within this L1 distance of a voxel seen occupied,
-    as the method's own rule does (`WorldModelConfig.obstacle_halo`; 0: off). Defaults
-    (lead, 2026-11-23): the grasp map with its fine map, up to 20 INSPECT views and an 8 cm
-    halo - on seed 101 (levels 1-4 x scenes 0-4) 3/20 end to end and 0 collision trials
-    against 0/20 with the method's 2 cm map, 6 views and no halo (docs/grasping.md); a
-    trial's wall time rose from 7 s to 25 s median. outside_free: the unknown space the
+    as the method's own rule does (`WorldModelConfig.obstacle_halo`; 0: off). The grasp map
+    with its fine map, 20 INSPECT views and an 8 cm halo (`benchmarks/trial_variants.py`,
+    `grasp_inspect_halo`) gave 3/20 end to end on seed 101 with 0 collision trials, but 0/20
+    with 1 collision trial on the fresh seed 2026 (link 3 on a base wall in the transfer,
+    through unseen space the near-body assumption took as free): not the default.
+    outside_free: the unknown space the
     method's own validity checker takes as free (outside the confined space's box, farther
     than its obstacle halo from anything seen; `exploration.world_model.assumed_free_mask`)
     is free for INSPECT's hypotheses and GRASP too: the arm moved under that rule all
@@ -99,14 +100,14 @@ class GraspTrialConfig:
     moved_margin: float = 0.02
     max_moved_configs: int = 400
     near_body_free: bool = True
-    inspect: InspectConfig = field(default_factory=lambda: InspectConfig(n_views=20))
-    grasp_map: bool = True
+    inspect: InspectConfig = field(default_factory=InspectConfig)
+    grasp_map: bool = False
     fine_map: bool = True
     fine_margin: float = 0.2
     scan: TrialScanConfig = field(default_factory=lambda: TrialScanConfig(max_views=0))
     plan_via_home: bool = False
     outside_free: bool = False
-    near_body_halo: float = 0.08
+    near_body_halo: float = 0.0
 
     def __post_init__(self) -> None:
         if not 0.02 <= self.fine_margin <= 0.5:
