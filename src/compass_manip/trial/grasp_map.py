@@ -76,6 +76,12 @@ class GraspMap(TrialObserver):
         if self.keep_frames:
             self.frames.append(Observation(obs.depth, None, obs.K, obs.T_world_cam, obs.t, obs.q))
 
+    def fine_map_around(self, points: np.ndarray, margin: float, upsample: int = 2) -> OccupancyMap:
+        """`fine_map` over the box of points (N,3) [m] grown by margin [m]: one box for the
+        GRASP stage and INSPECT's hypotheses alike, so both read the same cached map."""
+        pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        return self.fine_map(pts.min(0) - margin, pts.max(0) + margin, upsample)
+
     def fine_map(self, lo: np.ndarray, hi: np.ndarray, upsample: int = 2) -> OccupancyMap:
         """Every kept frame integrated again into a map `upsample` times finer than occ over
         the box lo..hi (3,) [m] (`grasp.field.local_fine_map`, aligned with occ's voxels).
@@ -108,8 +114,7 @@ class GraspWorld:
     def fine_map(self, points: np.ndarray) -> OccupancyMap | None:
         if self.fine_margin is None or not self.grasp_map.frames:
             return None
-        pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-        return self.grasp_map.fine_map(pts.min(0) - self.fine_margin, pts.max(0) + self.fine_margin, self.upsample)
+        return self.grasp_map.fine_map_around(points, self.fine_margin, self.upsample)
 
     @property
     def occ(self) -> OccupancyMap:

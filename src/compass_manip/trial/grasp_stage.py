@@ -119,8 +119,7 @@ def run_grasp_stage(world, occupancy, detection, task, q_current: np.ndarray, mo
     fine, t_fine = None, 0.0
     if grasp_map is not None and config.fine_map and grasp_map.frames:
         t0 = time.perf_counter()
-        fine = grasp_map.fine_map(points.min(0) - config.fine_margin, points.max(0) + config.fine_margin,
-                                  config.select.field_upsample)
+        fine = grasp_map.fine_map_around(points, config.fine_margin, config.select.field_upsample)
         t_fine = time.perf_counter() - t0
     proposer = None if pinned is None or len(pinned) == 0 else \
         PinnedProposer(AntipodalProposer(config.select.candidates), pinned)

@@ -117,13 +117,13 @@ def run_trial_full(spec: TrialSpec, config: TrialConfig | None = None, progress=
     grasp_occ = method.occupancy if gmap is None else gmap.occ  # read at GRASP: filled by every frame
     observers = observer if gmap is None else ObserverGroup([gmap] + ([observer] if observer is not None else []))
     n_inspect = config.grasp.inspect.n_views
+    rules = method.world.config if own is not None else None  # the method's rules for unknown space
     if config.grasp.enabled and config.grasp.inspect.n_views > 0 and own is not None:
         outward = np.asarray(task.space.outward, float)
         insp_rng = np.random.default_rng(np.random.SeedSequence((spec.seed, spec.level, spec.scene, spec.trial, 12)))
 
         if config.grasp.inspect.mode == "grasp":  # the grasp hypotheses' unknown voxels (trial.grasp_views)
             spheres, q_home = panda_sphere_model(world.robot), np.asarray(world.robot.q_home)
-            rules = method.world.config
             near = None if not (config.grasp.near_body_free or config.grasp.outside_free) else (
                 lambda occ: assumed_unknown_free(occ, config.grasp, spheres, q_home, task, rules))
             wm = method.world if gmap is None else GraspWorld(
@@ -149,7 +149,6 @@ def run_trial_full(spec: TrialSpec, config: TrialConfig | None = None, progress=
         charge = None if config.clock.measured else config.clock.planning_charge_s
 
         inspector = inspect.then if isinstance(inspect, NearFieldScanner) else inspect
-        rules = method.world.config if own is not None else None
 
         def grasp(q, detection, moved):  # INSPECT's grasp hypotheses are checked first
             pinned = inspector.pinned if isinstance(inspector, GraspInspector) else None
