@@ -164,6 +164,20 @@ def mark_configs(mask: np.ndarray, occ: OccupancyMap, spheres, Q: np.ndarray, ma
     mark_spheres(mask, occ.grid_min, occ.resolution, c, np.tile(spheres.radii + margin, len(Q)))
 
 
+def fresh_spheres(centers: np.ndarray, previous: np.ndarray | None) -> np.ndarray:
+    """(m, S) bool: the spheres of m configurations (centers (m, S, 3) [m], one radius per
+    sphere index) whose centre differs from the same sphere's in the configuration before
+    (for the first one: in `previous` (S, 3), the last configuration already marked with the
+    same radii, or None). A sphere equal to one already marked covers the same voxels, so
+    marking only the fresh ones sets the same mask (the fixed base's spheres, the joint path's
+    start, where the last path ended)."""
+    fresh = np.ones(centers.shape[:2], bool)
+    fresh[1:] = np.any(centers[1:] != centers[:-1], axis=2)
+    if previous is not None:
+        fresh[0] = np.any(centers[0] != previous, axis=1)
+    return fresh
+
+
 def assumed_free_mask(occ: OccupancyMap, task, config: WorldModelConfig) -> np.ndarray:
     """(nx, ny, nz) bool: the unknown space a method with `config` takes as free on occ's grid:
     outside the confined space's box (`outside_space_mask`) unless `near_base_box` holds it;
@@ -232,6 +246,7 @@ class WorldModel:
         if task is not None:
             shell &= ~space_box_mask(self.occ, task, task.space.wall_thickness + self.occ.resolution)
         self.swept |= body | shell
+        self._marked = (self.spheres.sphere_centers(self.q[None])[0], float(self.config.start_body_margin))
 
     def observe(self, obs: Observation) -> None:
         integrate_observation(self.occ, obs, self.spheres, self.config.max_range)
@@ -243,7 +258,13 @@ class WorldModel:
         margin [m] (default swept_margin), as safe."""
         margin = self.config.swept_margin if margin is None else float(margin)
         Q = densify(np.asarray(path, dtype=np.float64).reshape(-1, 7), self.config.sweep_step)
-        mark_configs(self.swept, self.occ, self.spheres, Q, margin)
+        c = self.spheres.sphere_centers(Q)  # the same mask as mark_configs, without the spheres already marked
+        last, last_margin = self._marked
+        fresh = fresh_spheres(c, last if last_margin == margin else None)
+        radii = np.broadcast_to(self.spheres.radii + margin, fresh.shape)
+        mark_spheres(self.swept, self.occ.grid_min, self.occ.resolution, np.ascontiguousarray(c[fresh]),
+                     np.ascontiguousarray(radii[fresh]))
+        self._marked = (c[-1].copy(), margin)
         self.q = np.asarray(path, dtype=np.float64).reshape(-1, 7)[-1].copy()
         self._checker = None
 
