@@ -112,3 +112,17 @@ def test_integrate_with_the_compiled_self_filter_equals_the_callable_path():
     s_slow = slow.integrate(depth, K, T, 1.0, point_filter=lambda p: body(p))
     assert s_fast == s_slow and s_fast.n_filtered > 0
     assert np.array_equal(fast.logodds, slow.logodds) and np.array_equal(fast.state, slow.state)
+
+
+def test_inside_where_equals_the_filter_on_the_valid_points_only():
+    rng = np.random.default_rng(4)
+    c, r = rng.uniform(-0.5, 0.5, (9, 3)), rng.uniform(0.02, 0.2, 9)
+    body = SphereBodyFilter(c, r, margin=0.01)
+    p = rng.uniform(-0.7, 0.7, (5000, 3))
+    valid = rng.random(len(p)) < 0.7
+    p[~valid] = np.nan  # never read
+    expect = np.zeros(len(p), bool)
+    expect[valid] = body(p[valid])
+    assert np.array_equal(body.inside_where(p, valid), expect) and expect.sum() > 0
+    with pytest.raises(CompassInputError, match="valid"):
+        body.inside_where(p, valid[:10])
