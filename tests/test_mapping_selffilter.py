@@ -80,3 +80,49 @@ def test_one_configuration_sphere_centres_equal_the_batch_kernel():
     one = model.sphere_centers(q[None])
     two = model.sphere_centers(np.stack([q, q]))  # the parallel kernel
     assert np.array_equal(one[0], two[0]) and np.array_equal(one[0], two[1])
+
+
+def test_invalidate_inside_drops_the_filters_points_of_the_given_kind_only():
+    rng = np.random.default_rng(3)
+    c, r = rng.uniform(-0.5, 0.5, (9, 3)), rng.uniform(0.02, 0.2, 9)
+    body = SphereBodyFilter(c, r, margin=0.01)
+    p = rng.uniform(-0.7, 0.7, (6000, 3))
+    kind = rng.integers(0, 3, len(p)).astype(np.uint8)
+    expect = kind.copy()
+    m = np.flatnonzero(kind == 1)
+    expect[m[body(p[m])]] = 2
+    got = kind.copy()
+    n = body.invalidate_inside(p, got, 1, 2)
+    assert np.array_equal(got, expect) and n == int(body(p[m]).sum()) > 0
+
+
+def test_integrate_with_the_compiled_self_filter_equals_the_callable_path():
+    """`OccupancyMap.integrate` uses `invalidate_inside` when the filter has it: the same map
+    and statistics as through the plain callable (a wrapper without the method)."""
+    spheres = panda_sphere_model()
+    centers = spheres.sphere_centers(np.asarray(Q_HOME, float)[None])[0]
+    body = SphereBodyFilter(centers, spheres.radii, margin=0.01)
+    cfg = MapConfig(box_min=(-0.2, -0.6, 0.0), box_max=(1.0, 0.6, 1.2))
+    T = look_at(centers.mean(axis=0) + [0.6, 0.0, 0.2], centers.mean(axis=0))
+    rng = np.random.default_rng(5)
+    depth = rng.uniform(0.3, 1.2, (24, 32)).astype(np.float32)
+    depth[0, :4] = np.inf
+    fast, slow = OccupancyMap(cfg), OccupancyMap(cfg)
+    s_fast = fast.integrate(depth, K, T, 1.0, point_filter=body)
+    s_slow = slow.integrate(depth, K, T, 1.0, point_filter=lambda p: body(p))
+    assert s_fast == s_slow and s_fast.n_filtered > 0
+    assert np.array_equal(fast.logodds, slow.logodds) and np.array_equal(fast.state, slow.state)
+
+
+def test_inside_where_equals_the_filter_on_the_valid_points_only():
+    rng = np.random.default_rng(4)
+    c, r = rng.uniform(-0.5, 0.5, (9, 3)), rng.uniform(0.02, 0.2, 9)
+    body = SphereBodyFilter(c, r, margin=0.01)
+    p = rng.uniform(-0.7, 0.7, (5000, 3))
+    valid = rng.random(len(p)) < 0.7
+    p[~valid] = np.nan  # never read
+    expect = np.zeros(len(p), bool)
+    expect[valid] = body(p[valid])
+    assert np.array_equal(body.inside_where(p, valid), expect) and expect.sum() > 0
+    with pytest.raises(CompassInputError, match="valid"):
+        body.inside_where(p, valid[:10])

@@ -186,8 +186,8 @@ def test_self_masked_detector_skips_the_mask_only_where_nothing_can_be_found(det
 
     spheres = panda_sphere_model()
     calls = []
-    real = self_mask.self_pixels
-    monkeypatch.setattr(self_mask, "self_pixels", lambda *a, **k: calls.append(1) or real(*a, **k))
+    real = self_mask._self_pixels_of
+    monkeypatch.setattr(self_mask, "_self_pixels_of", lambda *a, **k: calls.append(1) or real(*a, **k))
     masked = self_mask.SelfMaskedDetector(detector, spheres)
     without = self_mask.SelfMaskedDetector(lambda o, q: detector(o, q), spheres)  # no may_detect
     query = target_query(TARGET)
@@ -207,3 +207,37 @@ def test_self_masked_detector_skips_the_mask_only_where_nothing_can_be_found(det
     assert not detector.may_detect(obs, other)
     assert masked(obs, other) == () == without(obs, other)
     assert len(calls) == 1  # only the detector without the shortcut masked the image
+
+
+def test_self_masked_detector_hands_the_masked_points_on_as_the_inner_detector_would_compute_them(detector):
+    """`SelfMaskedDetector` gives the appearance detector its own back-projection with the
+    robot's pixels blanked: the same detections (points included) as the detector computing
+    them from the masked depth."""
+    from dataclasses import replace
+
+    import compass_manip.perception.self_mask as self_mask
+    from compass_manip.perception.target import backproject_image
+
+    query = target_query(TARGET)
+    frame, _ = _observe(_scene([]))
+    obs = frame.observation()
+    pts, valid = backproject_image(obs.depth, obs.K, obs.T_world_cam)
+    centre = detector(obs, query)[0].centroid_world + [0.0, 0.0, 0.03]
+
+    class Spheres:  # one "robot" sphere over the top of the target
+        radii = np.array([0.03])
+
+        @staticmethod
+        def sphere_centers(Q):
+            return np.asarray(centre, float)[None, None]
+
+    mine = self_mask.self_pixels(obs, Spheres(), margin=0.0)
+    assert 0 < mine.sum() < valid.sum()
+    depth = np.array(obs.depth, dtype=np.float32)
+    depth[mine] = 0.0
+    expect = detector(replace(obs, depth=depth), query)
+    got = self_mask.SelfMaskedDetector(detector, Spheres(), margin=0.0)(obs, query)
+    assert len(got) == len(expect) >= 1
+    for x, y in zip(got, expect):
+        assert (x.bbox, x.n_pixels, x.verdict, x.shape, x.score) == (y.bbox, y.n_pixels, y.verdict, y.shape, y.score)
+        assert np.array_equal(x.points_world, y.points_world) and np.array_equal(x.extents, y.extents)

@@ -28,6 +28,7 @@ from ..robot.kinematics import PandaKinematics
 from ..robot.model import RobotConfig
 from ..robot.spheres import panda_sphere_model
 from ..types import Observation
+from .halo import ObstacleHalo, manhattan_dilate  # noqa: F401 (manhattan_dilate: used here and imported from here)
 
 
 def default_map_config() -> MapConfig:
@@ -102,41 +103,6 @@ def mark_spheres(mask, grid_min, res, centers, radii):
                         mask[i, j, k] = True
 
 
-@nb.njit(cache=True)
-def manhattan_dilate(mask, r):
-    """Voxels within r 6-connected steps (L1 distance, in voxels) of a True voxel of mask
-    (nx, ny, nz): `scipy.ndimage.binary_dilation(mask, iterations=r)` with its default
-    structure, as a two-pass L1 distance transform per axis (exact for the L1 metric)."""
-    nx, ny, nz = mask.shape
-    big = r + 1
-    d = np.empty((nx, ny, nz), np.int32)
-    for i in range(nx):
-        for j in range(ny):
-            for k in range(nz):
-                d[i, j, k] = 0 if mask[i, j, k] else big
-    for i in range(1, nx):  # each pass keeps the contiguous axis innermost
-        for j in range(ny):
-            for k in range(nz):
-                d[i, j, k] = min(d[i, j, k], d[i - 1, j, k] + 1)
-    for i in range(nx - 2, -1, -1):
-        for j in range(ny):
-            for k in range(nz):
-                d[i, j, k] = min(d[i, j, k], d[i + 1, j, k] + 1)
-    for i in range(nx):
-        for j in range(1, ny):
-            for k in range(nz):
-                d[i, j, k] = min(d[i, j, k], d[i, j - 1, k] + 1)
-        for j in range(ny - 2, -1, -1):
-            for k in range(nz):
-                d[i, j, k] = min(d[i, j, k], d[i, j + 1, k] + 1)
-        for j in range(ny):
-            for k in range(1, nz):
-                d[i, j, k] = min(d[i, j, k], d[i, j, k - 1] + 1)
-            for k in range(nz - 2, -1, -1):
-                d[i, j, k] = min(d[i, j, k], d[i, j, k + 1] + 1)
-    return d <= r
-
-
 def outside_space_mask(occ: OccupancyMap, task, margin: float, floor_margin: float) -> np.ndarray:
     """(nx, ny, nz) bool: voxels outside the confined space's outer box grown by margin [m]
     (extended down to the floor) and higher than floor_margin [m] above the floor."""
@@ -164,6 +130,20 @@ def mark_configs(mask: np.ndarray, occ: OccupancyMap, spheres, Q: np.ndarray, ma
     mark_spheres(mask, occ.grid_min, occ.resolution, c, np.tile(spheres.radii + margin, len(Q)))
 
 
+def fresh_spheres(centers: np.ndarray, previous: np.ndarray | None) -> np.ndarray:
+    """(m, S) bool: the spheres of m configurations (centers (m, S, 3) [m], one radius per
+    sphere index) whose centre differs from the same sphere's in the configuration before
+    (for the first one: in `previous` (S, 3), the last configuration already marked with the
+    same radii, or None). A sphere equal to one already marked covers the same voxels, so
+    marking only the fresh ones sets the same mask (the fixed base's spheres, the joint path's
+    start, where the last path ended)."""
+    fresh = np.ones(centers.shape[:2], bool)
+    fresh[1:] = np.any(centers[1:] != centers[:-1], axis=2)
+    if previous is not None:
+        fresh[0] = np.any(centers[0] != previous, axis=1)
+    return fresh
+
+
 def assumed_free_mask(occ: OccupancyMap, task, config: WorldModelConfig) -> np.ndarray:
     """(nx, ny, nz) bool: the unknown space a method with `config` takes as free on occ's grid:
     outside the confined space's box (`outside_space_mask`) unless `near_base_box` holds it;
@@ -180,16 +160,18 @@ def assumed_free_mask(occ: OccupancyMap, task, config: WorldModelConfig) -> np.n
     return out
 
 
-def method_safe_voxels(occ: OccupancyMap, swept: np.ndarray, assumed_free: np.ndarray, obstacle_halo: float
-                       ) -> np.ndarray:
+def method_safe_voxels(occ: OccupancyMap, swept: np.ndarray, assumed_free: np.ndarray, obstacle_halo: float,
+                       halo_of=None) -> np.ndarray:
     """(nx, ny, nz) bool: the voxels a method's validity checker takes as safe besides free
     ones: the robot's swept space and the unknown space assumed free (outside the confined
     space, `outside_space_mask`) farther than obstacle_halo [m] (L1) from a seen obstacle;
-    voxels seen occupied never count."""
+    voxels seen occupied never count. halo_of: a function occupied -> the halo mask for
+    obstacle_halo (`halo.ObstacleHalo.near`, kept between calls), None: `manhattan_dilate`."""
     occupied = occ.occupied_mask()
     halo = int(round(obstacle_halo / occ.resolution))
     if halo > 0 and assumed_free.any():
-        assumed_free = assumed_free & ~manhattan_dilate(occupied, halo)
+        near = manhattan_dilate(occupied, halo) if halo_of is None else halo_of(occupied)
+        assumed_free = assumed_free & ~near
     return (swept | assumed_free) & ~occupied
 
 
@@ -216,6 +198,7 @@ class WorldModel:
         self._base_checker: ValidityChecker | None = None
         self._field: CappedDistance | None = None  # the distance field, updated where the map changed
         self._frontiers: tuple[FrontierCluster, ...] | None = None
+        self._halo = None  # the obstacle halo, kept between checker rebuilds (`halo.ObstacleHalo`)
         self.assumed_free = assumed_free_mask(self.occ, task, self.config)
         self._mark_start_shell(task)
 
@@ -232,6 +215,7 @@ class WorldModel:
         if task is not None:
             shell &= ~space_box_mask(self.occ, task, task.space.wall_thickness + self.occ.resolution)
         self.swept |= body | shell
+        self._marked = (self.spheres.sphere_centers(self.q[None])[0], float(self.config.start_body_margin))
 
     def observe(self, obs: Observation) -> None:
         integrate_observation(self.occ, obs, self.spheres, self.config.max_range)
@@ -243,7 +227,13 @@ class WorldModel:
         margin [m] (default swept_margin), as safe."""
         margin = self.config.swept_margin if margin is None else float(margin)
         Q = densify(np.asarray(path, dtype=np.float64).reshape(-1, 7), self.config.sweep_step)
-        mark_configs(self.swept, self.occ, self.spheres, Q, margin)
+        c = self.spheres.sphere_centers(Q)  # the same mask as mark_configs, without the spheres already marked
+        last, last_margin = self._marked
+        fresh = fresh_spheres(c, last if last_margin == margin else None)
+        radii = np.broadcast_to(self.spheres.radii + margin, fresh.shape)
+        mark_spheres(self.swept, self.occ.grid_min, self.occ.resolution, np.ascontiguousarray(c[fresh]),
+                     np.ascontiguousarray(radii[fresh]))
+        self._marked = (c[-1].copy(), margin)
         self.q = np.asarray(path, dtype=np.float64).reshape(-1, 7)[-1].copy()
         self._checker = None
 
@@ -252,7 +242,10 @@ class WorldModel:
         """Validity against the current map (unknown unsafe, swept space safe); cached
         until the next observation or executed path."""
         if self._checker is None:
-            safe = method_safe_voxels(self.occ, self.swept, self.assumed_free, self.config.obstacle_halo)
+            if self._halo is None:
+                self._halo = ObstacleHalo(int(round(self.config.obstacle_halo / self.occ.resolution)))
+            safe = method_safe_voxels(self.occ, self.swept, self.assumed_free, self.config.obstacle_halo,
+                                      self._halo.near)
             unsafe = unsafe_mask(self.occ, safe_voxels=safe)
             if self._base_checker is None:  # packs the robot's spheres once (~15 ms); sizes the field's cap
                 self._base_checker = ValidityChecker(self.spheres, config=self.config.validity)

@@ -242,7 +242,8 @@ class OccupancyMap:
         NaN, 0 and negative depths are ignored. +inf (no return) and points farther than
         max_range [m] (Euclidean, along the ray, as OctoMap's maxrange) clear free space
         up to max_range with no hit. point_filter (robot self-filter) drops the pixels
-        whose measured world point it flags (neither hit nor ray). A non-finite or
+        whose measured world point it flags (neither hit nor ray; a filter with
+        an `invalidate_inside` method, as `SphereBodyFilter`, drops them in place). A non-finite or
         non-rigid pose raises CompassInputError and leaves the map unchanged.
         """
         T = check_rigid(T_world_cam, "T_world_cam")
@@ -288,7 +289,10 @@ class OccupancyMap:
 
     def _integrate(self, points, kind, origin, max_range, point_filter, normals) -> IntegrationStats:
         n_filtered = 0
-        if point_filter is not None:
+        invalidate = getattr(point_filter, "invalidate_inside", None)
+        if invalidate is not None:  # a SphereBodyFilter: the same pixels dropped in one compiled pass
+            n_filtered = invalidate(points, kind, raycast.KIND_POINT, raycast.KIND_INVALID)
+        elif point_filter is not None:
             measured = np.flatnonzero(kind == raycast.KIND_POINT)
             drop = np.asarray(point_filter(points[measured]), dtype=bool)
             if drop.shape != measured.shape:

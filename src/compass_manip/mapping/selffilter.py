@@ -66,8 +66,56 @@ class SphereBodyFilter:
         p = float_array(points_world, "points_world", "(N, 3) numbers [m]")
         if p.ndim != 2 or p.shape[1] != 3:
             raise CompassInputError(f"points_world must have shape (N, 3), got {p.shape}")
-        return _inside_spheres(np.ascontiguousarray(p), self.centers_world, self._r2, self._lo, 1.0 / self._cell,
-                               self._dims, self._start, self._items)
+        return _inside_spheres(np.ascontiguousarray(p), _ALL, self.centers_world, self._r2, self._lo,
+                               1.0 / self._cell, self._dims, self._start, self._items)
+
+    def inside_where(self, points_world: np.ndarray, valid: np.ndarray) -> np.ndarray:
+        """bool (N,): `self(points_world[valid])` scattered back to the N points (False where
+        not valid), without copying the valid points out (points_world (N, 3) float64 [m],
+        valid (N,) bool; an invalid point's coordinates are never read)."""
+        p = np.ascontiguousarray(points_world, dtype=np.float64).reshape(-1, 3)
+        v = np.ascontiguousarray(valid, dtype=np.bool_).reshape(-1)
+        if len(v) != len(p) or len(v) == 0:
+            raise CompassInputError(f"valid has {len(v)} entries for {len(p)} points; give one per point (N >= 1)")
+        return _inside_spheres(p, v, self.centers_world, self._r2, self._lo, 1.0 / self._cell, self._dims,
+                               self._start, self._items)
+
+    def invalidate_inside(self, points_world: np.ndarray, kind: np.ndarray, point_kind: int, invalid_kind: int) -> int:
+        """In place: set kind[i] = invalid_kind for every point i of kind point_kind inside
+        the spheres (points_world (N, 3) float64 [m], kind (N,) uint8); returns how many.
+        The same as `kind[m[self(points_world[m])]] = invalid_kind` with m the points of
+        point_kind, in one compiled pass (no copies of the image's points)."""
+        return int(_invalidate_inside(points_world, kind, np.uint8(point_kind), np.uint8(invalid_kind),
+                                      self.centers_world, self._r2, self._lo, 1.0 / self._cell, self._dims,
+                                      self._start, self._items))
+
+
+@njit(cache=True)
+def _invalidate_inside(points, kind, point_kind, invalid_kind, centers, r2, lo, inv_cell, dims, start, items):
+    """`_inside_spheres`'s test for the points of point_kind, setting their kind to invalid_kind."""
+    n_dropped = 0
+    for i in range(points.shape[0]):
+        if kind[i] != point_kind:
+            continue
+        x = points[i, 0]
+        y = points[i, 1]
+        z = points[i, 2]
+        a = math.floor((x - lo[0]) * inv_cell)
+        b = math.floor((y - lo[1]) * inv_cell)
+        c = math.floor((z - lo[2]) * inv_cell)
+        if not (0 <= a < dims[0] and 0 <= b < dims[1] and 0 <= c < dims[2]):
+            continue
+        cell = (int(a) * dims[1] + int(b)) * dims[2] + int(c)
+        for t in range(start[cell], start[cell + 1]):
+            s = items[t]
+            dx = x - centers[s, 0]
+            dy = y - centers[s, 1]
+            dz = z - centers[s, 2]
+            if dx * dx + dy * dy + dz * dz <= r2[s]:
+                kind[i] = invalid_kind
+                n_dropped += 1
+                break
+    return n_dropped
 
 
 @njit(cache=True)
@@ -95,11 +143,19 @@ def _cell_lists(a, b, dims):
     return start, items
 
 
+#: `_inside_spheres`'s valid mask for "every point"
+_ALL = np.zeros(0, np.bool_)
+
+
 @njit(cache=True)
-def _inside_spheres(points, centers, r2, lo, inv_cell, dims, start, items):
+def _inside_spheres(points, valid, centers, r2, lo, inv_cell, dims, start, items):
+    """Points inside a sphere; valid: (N,) bool (only those tested, the rest False) or empty (all)."""
     n = points.shape[0]
     out = np.zeros(n, np.bool_)
+    masked = valid.shape[0] > 0
     for i in range(n):
+        if masked and not valid[i]:
+            continue
         x = points[i, 0]
         y = points[i, 1]
         z = points[i, 2]

@@ -124,7 +124,10 @@ class Detector(Protocol):
 
 
 class AppearanceDetector:
-    """Colour + 3D shape class + size detector (see the module docstring)."""
+    """Colour + 3D shape class + size detector (see the module docstring). `__call__`
+    takes the observation's world points when its caller has them (`takes_points_world`)."""
+
+    takes_points_world = True
 
     def __init__(self, config: DetectorConfig | None = None) -> None:
         self.config = config or DetectorConfig()
@@ -142,7 +145,10 @@ class AppearanceDetector:
         mask &= np.isfinite(depth) & (depth > 0) & (depth <= self.config.max_depth)
         return bool(mask.sum() >= self.config.min_pixels)
 
-    def __call__(self, obs: Observation, query: TargetQuery) -> tuple[Detection, ...]:
+    def __call__(self, obs: Observation, query: TargetQuery, points_world: np.ndarray | None = None
+                 ) -> tuple[Detection, ...]:
+        """points_world: `backproject_image(obs.depth, obs.K, obs.T_world_cam)[0]` (H, W, 3) [m]
+        when the caller has it (the self mask), else computed here."""
         if obs.rgb is None:
             raise CompassInputError("AppearanceDetector needs an RGB image; the observation has none")
         config = self.config
@@ -156,7 +162,7 @@ class AppearanceDetector:
         keep = [k for k in range(1, n + 1) if sizes[k] >= config.min_pixels]
         if not keep:
             return ()
-        pts, _ = backproject_image(depth, obs.K, obs.T_world_cam)
+        pts = backproject_image(depth, obs.K, obs.T_world_cam)[0] if points_world is None else points_world
         slices = ndimage.find_objects(labels)
         out = [self._region(obs, labels, k, slices[k - 1], pts, query) for k in keep]
         return tuple(out)

@@ -36,13 +36,16 @@ def self_pixels(obs: Observation, spheres, margin: float = SELF_MASK_MARGIN) -> 
     """(H, W) bool: pixels whose measured point lies on the robot (its spheres posed at
     obs.q, grown by margin [m]); pixels without depth are False."""
     pts, valid = backproject_image(obs.depth, obs.K, obs.T_world_cam)
-    out = np.zeros(valid.shape, bool)
+    return _self_pixels_of(pts, valid, obs.q, spheres, margin)
+
+
+def _self_pixels_of(pts: np.ndarray, valid: np.ndarray, q, spheres, margin: float) -> np.ndarray:
+    """`self_pixels` from the image's world points and validity (`backproject_image`)."""
     if not valid.any():
-        return out
-    centres = spheres.sphere_centers(np.asarray(obs.q, dtype=np.float64)[None])[0]
+        return np.zeros(valid.shape, bool)
+    centres = spheres.sphere_centers(np.asarray(q, dtype=np.float64)[None])[0]
     body = SphereBodyFilter(centres, spheres.radii, margin=margin)
-    out[valid] = np.asarray(body(pts[valid]), dtype=bool)
-    return out
+    return body.inside_where(pts.reshape(-1, 3), valid.reshape(-1)).reshape(valid.shape)  # = body(pts[valid]) there
 
 
 class SelfMaskedDetector:
@@ -60,9 +63,13 @@ class SelfMaskedDetector:
         may_detect = getattr(self.inner, "may_detect", None)  # an inner detector that can tell
         if may_detect is not None and not may_detect(obs, query):  # it finds nothing even unmasked
             return ()
-        mine = self_pixels(obs, self.spheres, self.margin)
+        pts, valid = backproject_image(obs.depth, obs.K, obs.T_world_cam)
+        mine = _self_pixels_of(pts, valid, obs.q, self.spheres, self.margin)
         if mine.any():
             depth = np.array(obs.depth, dtype=np.float32, copy=True)
             depth[mine] = 0.0
             obs = replace(obs, depth=depth)
+            pts[mine] = np.nan  # = backproject_image of the masked depth (no depth: NaN), the rest the same
+        if getattr(self.inner, "takes_points_world", False):  # spare it the same back-projection
+            return self.inner(obs, query, points_world=pts)
         return self.inner(obs, query)
