@@ -115,3 +115,26 @@ def test_the_fine_field_near_the_target_keeps_the_same_cubes_and_loses_less():
     assert bounds[1] > bounds[0]  # the fine field clears more of the truly free points
     with pytest.raises(CompassInputError, match="upsample"):
         local_fine_field(unsafe, occ, p[0], p[0], 9)
+
+
+def test_the_search_goes_past_many_infeasible_candidates_up_to_max_checked(world, monkeypatch):
+    """The arm's checks run on up to max_checked candidates (default 400: in the default scenes
+    the first feasible one often came after the 60th), and no further."""
+    from compass_manip.grasp import checks as checks_mod
+    occ, task, target = world
+    spheres = panda_sphere_model()
+    orig = checks_mod.GraspChecks.check
+    calls = {"n": 0}
+
+    def first_100_fail(self, *args, **kw):  # the best 100 candidates have no arm solution
+        calls["n"] += 1
+        return (None, "NO_IK") if calls["n"] <= 100 else orig(self, *args, **kw)
+
+    monkeypatch.setattr(checks_mod.GraspChecks, "check", first_100_fail)
+    assert GraspSelectConfig().max_checked >= 150
+    sel = select_grasp(target, occ, task, Q_HOME, spheres, GraspSelectConfig(), np.random.default_rng(0))
+    assert sel.failure is None and sel.rejections[Rejection.NO_IK] == 100
+    calls["n"] = 0
+    few = select_grasp(target, occ, task, Q_HOME, spheres, GraspSelectConfig(max_checked=60, exact_fallback=False),
+                       np.random.default_rng(0))
+    assert few.failure is GraspFailure.NO_IK and few.rejections[Rejection.NO_IK] == 60 and calls["n"] == 60

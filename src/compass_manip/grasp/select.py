@@ -98,7 +98,7 @@ class GraspSelectConfig:
     n_q7: int = 24
     max_ik_solutions: int = 3
     max_feasible: int = 4
-    max_checked: int = 60
+    max_checked: int = 400
     max_joint_step: float = 0.6
     voxel_extent: bool = True
     field_upsample: int = 2
