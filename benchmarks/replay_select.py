@@ -21,6 +21,7 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 import numpy as np
 
 from compass_manip.grasp.select import select_grasp
+from compass_manip.motion.planner import PlannerConfig  # noqa: F401 (for --set planner=...)
 from compass_manip.motion.timing import densify
 from compass_manip.robot.model import RobotConfig
 from compass_manip.robot.spheres import panda_sphere_model
@@ -34,6 +35,7 @@ def main() -> int:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--set", nargs="*", default=[], help="GraspSelectConfig field=value (python literal)")
     ap.add_argument("--only", default=None)
+    ap.add_argument("--via-home", action="store_true", help="q_via = the home posture")
     args = ap.parse_args()
     over = {k: eval(v) for k, v in (s.split("=", 1) for s in args.set)}
     n_ok = 0
@@ -51,7 +53,8 @@ def main() -> int:
         cfg = dataclasses.replace(box["config"], **over)
         t0 = time.perf_counter()
         s = select_grasp(box["target"], box["occ"], box["task"], box["q"], spheres, cfg, box["rng"],
-                         proposer=box.get("proposer"), extra_safe=box["extra_safe"], fine_map=box.get("fine_map"))
+                         proposer=box.get("proposer"), extra_safe=box["extra_safe"], fine_map=box.get("fine_map"),
+                         q_via=np.asarray(RobotConfig().q_home) if args.via_home else None)
         wall = time.perf_counter() - t0
         rec = {"level": level, "index": index, "failure": None if s.failure is None else s.failure.name,
                "score": s.score, "time_ms": round(1e3 * wall), "rejections": {k.name: v for k, v in s.rejections.items()}}

@@ -123,14 +123,14 @@ def test_the_search_goes_past_many_infeasible_candidates_up_to_max_checked(world
     from compass_manip.grasp import checks as checks_mod
     occ, task, target = world
     spheres = panda_sphere_model()
-    orig = checks_mod.GraspChecks.check
+    orig = checks_mod.GraspChecks.check_shorter
     calls = {"n": 0}
 
     def first_100_fail(self, *args, **kw):  # the best 100 candidates have no arm solution
         calls["n"] += 1
-        return (None, "NO_IK") if calls["n"] <= 100 else orig(self, *args, **kw)
+        return (None, "NO_IK", math.nan, math.nan) if calls["n"] <= 100 else orig(self, *args, **kw)
 
-    monkeypatch.setattr(checks_mod.GraspChecks, "check", first_100_fail)
+    monkeypatch.setattr(checks_mod.GraspChecks, "check_shorter", first_100_fail)
     assert GraspSelectConfig().max_checked >= 150
     sel = select_grasp(target, occ, task, Q_HOME, spheres, GraspSelectConfig(), np.random.default_rng(0))
     assert sel.failure is None and sel.rejections[Rejection.NO_IK] == 100
@@ -138,3 +138,66 @@ def test_the_search_goes_past_many_infeasible_candidates_up_to_max_checked(world
     few = select_grasp(target, occ, task, Q_HOME, spheres, GraspSelectConfig(max_checked=60, exact_fallback=False),
                        np.random.default_rng(0))
     assert few.failure is GraspFailure.NO_IK and few.rejections[Rejection.NO_IK] == 60 and calls["n"] == 60
+
+
+def test_the_arm_takes_a_lower_lift_or_shorter_pregrasp_than_the_hand_alone_allows(world):
+    """Under the board above, the hand alone clears a 10 cm lift but the arm does not: the
+    arm's checks fall back to the lower lift heights (and shorter pre-grasps) of the config,
+    and the configurations they return sit at the distances they report."""
+    import dataclasses
+    from compass_manip.grasp.checks import GraspChecks, first_clear, lift_steps, rigid_hand_spheres
+    from compass_manip.robot.ik import PandaIK
+    occ, task, target = world
+    spheres = panda_sphere_model()
+    cfg = GraspSelectConfig()
+    sel = select_grasp(target, occ, task, Q_HOME, spheres, cfg, np.random.default_rng(0))
+    T = sel.T_world_tcp
+    safe = (spheres.sphere_centers(Q_HOME[None])[0], spheres.radii + cfg.robot_clearance)
+
+    def checks(c):
+        return GraspChecks(occ, target, spheres, PandaIK(spheres.kinematics), c, safe, None, Q_HOME)
+
+    ch = checks(cfg)
+    assert first_clear(ch.fine, T[None], rigid_hand_spheres(spheres), lift_steps(cfg.lift_heights))[0] == 0.10
+    clear = {h: ch.held_target_clear(h) for h in cfg.lift_heights}
+    only_full = checks(dataclasses.replace(cfg, pregrasp_distances=(0.10,), lift_heights=(0.10,)))
+    qs, why, d, h = only_full.check_shorter(T, Q_HOME, 0.10, 0.10, clear)
+    assert qs is None and why == "LIFT_BLOCKED" and math.isnan(d) and math.isnan(h)
+    qs, why, d, h = ch.check_shorter(T, Q_HOME, 0.10, 0.10, clear)
+    assert why is None and d in cfg.pregrasp_distances and h in (0.07, 0.04)
+    kin = spheres.kinematics
+    assert np.allclose(kin.T_world_tcp(qs[1])[:3, 3], T[:3, 3] - d * T[:3, 2], atol=2e-3)
+    assert np.allclose(kin.T_world_tcp(qs[2])[:3, 3], T[:3, 3] + np.array([0.0, 0.0, h]), atol=2e-3)
+    assert ch.check(T, Q_HOME, 0.10, 0.10, clear)[1] is None  # `check` is the same test
+    # the selection reports the distances it used
+    assert sel.lift_height in cfg.lift_heights and sel.pregrasp_distance in cfg.pregrasp_distances
+
+
+def test_pinned_candidates_are_checked_first_whatever_their_score(world, monkeypatch):
+    """INSPECT's hypotheses (a `PinnedProposer`'s pinned candidates) go to the arm's checks
+    before every other candidate, so the cap on the candidates checked cannot drop them."""
+    from compass_manip.grasp import checks as checks_mod
+    from compass_manip.grasp.candidates import AntipodalProposer, PinnedProposer
+    from compass_manip.grasp.select import n_pinned
+    occ, task, target = world
+    spheres = panda_sphere_model()
+    best = select_grasp(target, occ, task, Q_HOME, spheres, GraspSelectConfig(), np.random.default_rng(0))
+    c = antipodal_candidates(target, None, np.random.default_rng(0))
+    i = int(np.argmin(np.linalg.norm(c.T_world_tcp[:, :3, 3] - best.T_world_tcp[:3, 3], axis=1)
+                      + np.linalg.norm(c.T_world_tcp[:, :3, 2] - best.T_world_tcp[:3, 2], axis=1)))
+    pin = c.take([i])
+    pin = GraspCandidates(pin.T_world_tcp, pin.width, np.array([0.1]), pin.p1, pin.p2, pin.n1, pin.n2)
+    proposer = PinnedProposer(AntipodalProposer(), pin)
+    assert n_pinned(proposer) == 1 and n_pinned(AntipodalProposer()) == 0 and n_pinned(None) == 0
+    seen = []
+    orig = checks_mod.GraspChecks.check_shorter
+
+    def record(self, T, *args, **kw):
+        seen.append(np.array(T))
+        return orig(self, T, *args, **kw)
+
+    monkeypatch.setattr(checks_mod.GraspChecks, "check_shorter", record)
+    sel = select_grasp(target, occ, task, Q_HOME, spheres, GraspSelectConfig(), np.random.default_rng(1),
+                       proposer=proposer)
+    assert np.allclose(seen[0], pin.T_world_tcp[0])
+    assert sel.failure is None

@@ -7,8 +7,9 @@ volume carved (`carve.py`). The path constraint covers the whole manoeuvre: a pl
 from q_current to the pre-grasp, the straight approach along the gripper's z, and the lift
 (arm and held target). The desired approach n comes from the confined space's opening (the
 hand enters against `outward`) made perpendicular to the target's long axis when it has one.
-Candidates are tried by score (ties: the smaller approach angle in 10 deg bins first, then
-the higher grasp point); among the feasible
+Candidates are tried by score (ties: the higher free lift, the smaller approach angle in 10 deg
+bins, then the higher grasp point), up to `max_checked` past the hand's checks, a pinned
+proposer's own candidates (INSPECT's hypotheses, `n_pinned`) first; among the feasible
 ones of the best score the planner takes any goal it reaches.
 
 With `constrained=False` (the paper's ablation) the highest-scored candidate with any IK
@@ -199,6 +200,17 @@ def desired_approach(target: TargetModel, task: Task, tilt: float = math.radians
     return a
 
 
+def n_pinned(proposer) -> int:
+    """How many of a proposer's first candidates are pinned (`candidates.PinnedProposer`: the
+    grasp hypotheses INSPECT found and looked at, the best-scored candidates that passed the
+    checks with unknown space free); 0 for any other proposer. The selection checks them
+    first: the candidates the hypothesis search ranked above them failed those looser
+    checks already, and the cap on the candidates checked (`max_checked`) must not drop
+    the grasp the views were taken for."""
+    pins = getattr(proposer, "pinned", None)
+    return 0 if pins is None else len(pins)
+
+
 def approach_angles(cands: GraspCandidates, n: np.ndarray) -> np.ndarray:
     """(M,) angle [rad] between each candidate's approach (TCP z) and n."""
     return np.arccos(np.clip(cands.approach @ n, -1.0, 1.0))
@@ -333,13 +345,16 @@ def select_grasp(target: TargetModel, occ: OccupancyMap, task: Task, q_current: 
     rejections[Rejection.HAND_LIFT_BLOCKED] = int(np.count_nonzero(np.isnan(lift)))
     keep = ~np.isnan(lift)
     pre_of[within[keep]], lift_of[within[keep]] = pre[keep], lift[keep]
+    hand_pre, hand_lift = pre_of.copy(), lift_of.copy()  # the hand's longest free pre-grasp / highest lift
     within = within[keep]
     if len(within) == 0:
         return done(GraspFailure.NO_APPROACH_PATH)
-    # ties of s: the higher free lift first, then the approach nearer n (10 deg bins), then the higher grasp point
+    # ties of s: the higher free lift first, then the approach nearer n (10 deg bins), then the higher grasp point;
+    # a pinned proposer's own candidates (INSPECT's hypotheses, whose way in was looked at) before all others
     z = cands.T_world_tcp[within, 2, 3]
+    pinned = (within < n_pinned(proposer)).astype(np.int64)
     order = within[np.lexsort((-z, np.round(ang[within] / math.radians(10.0)), -lift_of[within],
-                               -cands.score[within]))]
+                               -cands.score[within], -pinned))]
     stages["hand_s"] = time.perf_counter() - t_stage
     t_stage = time.perf_counter()
 
@@ -374,14 +389,15 @@ def select_grasp(target: TargetModel, occ: OccupancyMap, task: Task, q_current: 
                 feasible = []
             if idx not in solved:  # the first IK does not depend on the field: once per candidate
                 solved[idx] = chk.ik_first(cands.T_world_tcp[idx], q_current)
-            qs, why = chk.check(cands.T_world_tcp[idx], q_current, pre_of[idx], lift_of[idx], lift_clear[lift_of[idx]],
-                                solved[idx])
+            qs, why, d_pre, h_lift = chk.check_shorter(cands.T_world_tcp[idx], q_current, hand_pre[idx], hand_lift[idx],
+                                                       lift_clear, solved[idx])
             why = None if why is None else Rejection[why]
             if why is not None:
                 ik_rej[why] += 1
                 n_free_ik += why not in (Rejection.NO_IK, Rejection.IK_IN_COLLISION)
                 continue
             n_free_ik += 1
+            pre_of[idx], lift_of[idx] = d_pre, h_lift  # a shorter pre-grasp or lower lift may be what the arm allows
             feasible.append((int(idx), qs))
             if len(feasible) >= config.max_feasible:
                 out = try_plan(feasible)
