@@ -201,3 +201,29 @@ def test_pinned_candidates_are_checked_first_whatever_their_score(world, monkeyp
                        proposer=proposer)
     assert np.allclose(seen[0], pin.T_world_tcp[0])
     assert sel.failure is None
+
+
+def test_a_search_stops_after_max_failed_plans_planner_failures(world, monkeypatch):
+    """Every group of feasible goals whose path fails costs the planner's budget: one field's
+    search stops after `max_failed_plans` of them and reports NO_PATH."""
+    from compass_manip.grasp import select as select_mod
+    from compass_manip.motion.planner import PlanFailure, PlanResult
+    occ, task, target = world
+    spheres = panda_sphere_model()
+    calls = {"n": 0}
+
+    def never(*args, **kw):
+        calls["n"] += 1
+        return PlanResult(None, PlanFailure.TIMEOUT, -1, 0.0, 0)
+
+    monkeypatch.setattr(select_mod, "plan", never)
+    cfg = GraspSelectConfig(max_failed_plans=2, exact_fallback=False, max_feasible=1)
+    sel = select_grasp(target, occ, task, Q_HOME, spheres, cfg, np.random.default_rng(0))
+    assert sel.failure is GraspFailure.NO_PATH and calls["n"] == 2 and sel.rejections[Rejection.NO_PATH] == 2
+    calls["n"] = 0
+    sel = select_grasp(target, occ, task, Q_HOME, spheres, GraspSelectConfig(max_failed_plans=None, max_feasible=1,
+                                                                            exact_fallback=False),
+                       np.random.default_rng(0))
+    assert sel.failure is GraspFailure.NO_PATH and calls["n"] > 2
+    with pytest.raises(CompassInputError, match="max_failed_plans"):
+        GraspSelectConfig(max_failed_plans=0)

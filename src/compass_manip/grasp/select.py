@@ -88,7 +88,9 @@ class GraspSelectConfig:
     [m] kept by the planned path to the pre-grasp; exact_fallback: when no candidate passes
     the arm's checks and the path on the field that is exact only near the target, the wrist
     and the base, run those checks again on a field exact in the whole box (the selection
-    then equals one made on that field throughout); planner: settings of that path."""
+    then equals one made on that field throughout); max_failed_plans: a search on one field
+    stops after this many planner calls that found no path (each spends the planner's
+    budget; None: no limit); planner: settings of that path."""
 
     constrained: bool = True
     max_approach_angle: float = math.radians(50.0)
@@ -105,6 +107,7 @@ class GraspSelectConfig:
     field_upsample: int = 2
     plan_margin: float = 0.005
     exact_fallback: bool = True
+    max_failed_plans: int | None = 6
     candidates: CandidateConfig = field(default_factory=CandidateConfig)
     planner: PlannerConfig = field(default_factory=lambda: PlannerConfig(time_budget=0.5))
 
@@ -118,6 +121,8 @@ class GraspSelectConfig:
             raise CompassInputError(f"lift_heights {self.lift_heights} m not allowed; use values in 0..0.3 m")
         if not 0.0 <= self.clearance <= 0.1:
             raise CompassInputError(f"clearance {self.clearance} m is not allowed; use 0..0.1 m")
+        if self.max_failed_plans is not None and not 1 <= self.max_failed_plans <= 1000:
+            raise CompassInputError(f"max_failed_plans {self.max_failed_plans} is not allowed; use 1..1000 or None")
         if not 1 <= self.max_feasible <= 100 or not 1 <= self.max_checked <= 100000:
             raise CompassInputError("max_feasible must be 1..100 and max_checked 1..100000")
 
@@ -365,6 +370,7 @@ def select_grasp(target: TargetModel, occ: OccupancyMap, task: Task, q_current: 
         lift_clear = {h: chk.held_target_clear(h) for h in config.lift_heights}
         feasible: list[tuple[int, tuple]] = []
         n_free_ik = 0
+        failed = [0]  # planner calls that found no path (`max_failed_plans`)
 
         def try_plan(group):
             nonlocal plan_time
@@ -379,9 +385,12 @@ def select_grasp(target: TargetModel, occ: OccupancyMap, task: Task, q_current: 
                 idx, qs = group[res.goal_index]
                 return done(None, idx, qs, path)
             ik_rej[Rejection.NO_PATH] += len(group)
+            failed[0] += 1
             return None
 
         for idx in order[: config.max_checked]:
+            if config.max_failed_plans is not None and failed[0] >= config.max_failed_plans:
+                return None, n_free_ik  # the planner's budget is spent on this field
             if feasible and cands.score[idx] < cands.score[feasible[0][0]] and len(feasible) >= 1:
                 out = try_plan(feasible)  # the best score level is complete: plan to it first
                 if out is not None:
