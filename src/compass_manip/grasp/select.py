@@ -388,14 +388,27 @@ def select_grasp(target: TargetModel, occ: OccupancyMap, task: Task, q_current: 
             failed[0] += 1
             return None
 
+        reduced: list[tuple[int, tuple]] = []  # feasible only at a shorter pre-grasp / lower lift than the hand's
+
+        def level_done():
+            """Plan to the score level's full candidates, then to its reduced ones."""
+            for group in (feasible, reduced):
+                if group:
+                    out = try_plan(group)
+                    if out is not None:
+                        return out
+            return None
+
+        level = None
         for idx in order[: config.max_checked]:
             if config.max_failed_plans is not None and failed[0] >= config.max_failed_plans:
                 return None, n_free_ik  # the planner's budget is spent on this field
-            if feasible and cands.score[idx] < cands.score[feasible[0][0]] and len(feasible) >= 1:
-                out = try_plan(feasible)  # the best score level is complete: plan to it first
+            if level is not None and cands.score[idx] < level and (feasible or reduced):
+                out = level_done()  # the best score level is complete: plan to it first
                 if out is not None:
                     return out, n_free_ik
-                feasible = []
+                feasible, reduced = [], []
+            level = cands.score[idx]
             if idx not in solved:  # the first IK does not depend on the field: once per candidate
                 solved[idx] = chk.ik_first(cands.T_world_tcp[idx], q_current)
             qs, why, d_pre, h_lift = chk.check_shorter(cands.T_world_tcp[idx], q_current, hand_pre[idx], hand_lift[idx],
@@ -407,16 +420,19 @@ def select_grasp(target: TargetModel, occ: OccupancyMap, task: Task, q_current: 
                 continue
             n_free_ik += 1
             pre_of[idx], lift_of[idx] = d_pre, h_lift  # a shorter pre-grasp or lower lift may be what the arm allows
+            if d_pre < hand_pre[idx] or h_lift < hand_lift[idx]:
+                if len(reduced) < config.max_feasible:  # ties of s: the full pre-grasp and lift first
+                    reduced.append((int(idx), qs))
+                continue
             feasible.append((int(idx), qs))
             if len(feasible) >= config.max_feasible:
                 out = try_plan(feasible)
                 if out is not None:
                     return out, n_free_ik
                 feasible = []
-        if feasible:
-            out = try_plan(feasible)
-            if out is not None:
-                return out, n_free_ik
+        out = level_done()
+        if out is not None:
+            return out, n_free_ik
         return None, n_free_ik
 
     solved: dict = {}  # candidate index -> its first IK result (shared by both fields)
