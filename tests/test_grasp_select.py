@@ -115,3 +115,129 @@ def test_the_fine_field_near_the_target_keeps_the_same_cubes_and_loses_less():
     assert bounds[1] > bounds[0]  # the fine field clears more of the truly free points
     with pytest.raises(CompassInputError, match="upsample"):
         local_fine_field(unsafe, occ, p[0], p[0], 9)
+
+
+def test_the_search_goes_past_many_infeasible_candidates_up_to_max_checked(world, monkeypatch):
+    """The arm's checks run on up to max_checked candidates (default 400: in the default scenes
+    the first feasible one often came after the 60th), and no further."""
+    from compass_manip.grasp import checks as checks_mod
+    occ, task, target = world
+    spheres = panda_sphere_model()
+    orig = checks_mod.GraspChecks.check_shorter
+    calls = {"n": 0}
+
+    def first_100_fail(self, *args, **kw):  # the best 100 candidates have no arm solution
+        calls["n"] += 1
+        return (None, "NO_IK", math.nan, math.nan) if calls["n"] <= 100 else orig(self, *args, **kw)
+
+    monkeypatch.setattr(checks_mod.GraspChecks, "check_shorter", first_100_fail)
+    assert GraspSelectConfig().max_checked >= 150
+    sel = select_grasp(target, occ, task, Q_HOME, spheres, GraspSelectConfig(), np.random.default_rng(0))
+    assert sel.failure is None and sel.rejections[Rejection.NO_IK] == 100
+    calls["n"] = 0
+    few = select_grasp(target, occ, task, Q_HOME, spheres, GraspSelectConfig(max_checked=60, exact_fallback=False),
+                       np.random.default_rng(0))
+    assert few.failure is GraspFailure.NO_IK and few.rejections[Rejection.NO_IK] == 60 and calls["n"] == 60
+
+
+def test_the_arm_takes_a_lower_lift_or_shorter_pregrasp_than_the_hand_alone_allows(world):
+    """Under the board above, the hand alone clears a 10 cm lift for some grasps whose arm
+    does not: the arm's checks fall back to the lower lift heights (and shorter pre-grasps)
+    of the config, and the configurations they return sit at the distances they report; the
+    selection still prefers, at equal score, a grasp with the full lift."""
+    import dataclasses
+    from compass_manip.grasp.checks import GraspChecks, first_clear, lift_steps, pregrasp_steps, rigid_hand_spheres
+    from compass_manip.robot.ik import PandaIK
+    occ, task, target = world
+    spheres = panda_sphere_model()
+    cfg = GraspSelectConfig()
+    safe = (spheres.sphere_centers(Q_HOME[None])[0], spheres.radii + cfg.robot_clearance)
+
+    def checks(c):
+        return GraspChecks(occ, target, spheres, PandaIK(spheres.kinematics), c, safe, None, Q_HOME)
+
+    ch = checks(cfg)
+    only_full = checks(dataclasses.replace(cfg, pregrasp_distances=(0.10,), lift_heights=(0.10,)))
+    clear = {h: ch.held_target_clear(h) for h in cfg.lift_heights}
+    c = antipodal_candidates(target, None, np.random.default_rng(0))
+    n = desired_approach(target, task)
+    c = c.take(np.nonzero(approach_angles(c, n) <= cfg.max_approach_angle)[0])
+    local = rigid_hand_spheres(spheres)
+    pre = first_clear(ch.fine, c.T_world_tcp, local, pregrasp_steps(cfg.pregrasp_distances))
+    lift = first_clear(ch.fine, c.T_world_tcp, local, lift_steps(cfg.lift_heights))
+    found = 0
+    for i in np.nonzero((pre == 0.10) & (lift == 0.10))[0][:150]:
+        T = c.T_world_tcp[i]
+        if only_full.check_shorter(T, Q_HOME, 0.10, 0.10, clear)[1] != "LIFT_BLOCKED":
+            continue
+        qs, why, d, h = ch.check_shorter(T, Q_HOME, 0.10, 0.10, clear)
+        if why is not None:
+            continue
+        found += 1
+        assert d in cfg.pregrasp_distances and h in (0.07, 0.04)
+        kin = spheres.kinematics
+        assert np.allclose(kin.T_world_tcp(qs[1])[:3, 3], T[:3, 3] - d * T[:3, 2], atol=2e-3)
+        assert np.allclose(kin.T_world_tcp(qs[2])[:3, 3], T[:3, 3] + np.array([0.0, 0.0, h]), atol=2e-3)
+        assert ch.check(T, Q_HOME, 0.10, 0.10, clear)[1] is None  # `check` is the same test
+        assert math.isnan(only_full.check_shorter(T, Q_HOME, 0.10, 0.10, clear)[2])
+        if found >= 3:
+            break
+    assert found >= 1
+    sel = select_grasp(target, occ, task, Q_HOME, spheres, cfg, np.random.default_rng(0))
+    assert sel.lift_height == 0.10  # a full lift exists at the best score: it is preferred
+
+
+def test_pinned_candidates_are_checked_first_whatever_their_score(world, monkeypatch):
+    """INSPECT's hypotheses (a `PinnedProposer`'s pinned candidates) go to the arm's checks
+    before every other candidate, so the cap on the candidates checked cannot drop them."""
+    from compass_manip.grasp import checks as checks_mod
+    from compass_manip.grasp.candidates import AntipodalProposer, PinnedProposer
+    from compass_manip.grasp.select import n_pinned
+    occ, task, target = world
+    spheres = panda_sphere_model()
+    best = select_grasp(target, occ, task, Q_HOME, spheres, GraspSelectConfig(), np.random.default_rng(0))
+    c = antipodal_candidates(target, None, np.random.default_rng(0))
+    i = int(np.argmin(np.linalg.norm(c.T_world_tcp[:, :3, 3] - best.T_world_tcp[:3, 3], axis=1)
+                      + np.linalg.norm(c.T_world_tcp[:, :3, 2] - best.T_world_tcp[:3, 2], axis=1)))
+    pin = c.take([i])
+    pin = GraspCandidates(pin.T_world_tcp, pin.width, np.array([0.1]), pin.p1, pin.p2, pin.n1, pin.n2)
+    proposer = PinnedProposer(AntipodalProposer(), pin)
+    assert n_pinned(proposer) == 1 and n_pinned(AntipodalProposer()) == 0 and n_pinned(None) == 0
+    seen = []
+    orig = checks_mod.GraspChecks.check_shorter
+
+    def record(self, T, *args, **kw):
+        seen.append(np.array(T))
+        return orig(self, T, *args, **kw)
+
+    monkeypatch.setattr(checks_mod.GraspChecks, "check_shorter", record)
+    sel = select_grasp(target, occ, task, Q_HOME, spheres, GraspSelectConfig(), np.random.default_rng(1),
+                       proposer=proposer)
+    assert np.allclose(seen[0], pin.T_world_tcp[0])
+    assert sel.failure is None
+
+
+def test_a_search_stops_after_max_failed_plans_planner_failures(world, monkeypatch):
+    """Every group of feasible goals whose path fails costs the planner's budget: one field's
+    search stops after `max_failed_plans` of them and reports NO_PATH."""
+    from compass_manip.grasp import select as select_mod
+    from compass_manip.motion.planner import PlanFailure, PlanResult
+    occ, task, target = world
+    spheres = panda_sphere_model()
+    calls = {"n": 0}
+
+    def never(*args, **kw):
+        calls["n"] += 1
+        return PlanResult(None, PlanFailure.TIMEOUT, -1, 0.0, 0)
+
+    monkeypatch.setattr(select_mod, "plan", never)
+    cfg = GraspSelectConfig(max_failed_plans=2, exact_fallback=False, max_feasible=1)
+    sel = select_grasp(target, occ, task, Q_HOME, spheres, cfg, np.random.default_rng(0))
+    assert sel.failure is GraspFailure.NO_PATH and calls["n"] == 2 and sel.rejections[Rejection.NO_PATH] == 2
+    calls["n"] = 0
+    sel = select_grasp(target, occ, task, Q_HOME, spheres, GraspSelectConfig(max_failed_plans=None, max_feasible=1,
+                                                                            exact_fallback=False),
+                       np.random.default_rng(0))
+    assert sel.failure is GraspFailure.NO_PATH and calls["n"] > 2
+    with pytest.raises(CompassInputError, match="max_failed_plans"):
+        GraspSelectConfig(max_failed_plans=0)

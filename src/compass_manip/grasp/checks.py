@@ -263,30 +263,55 @@ class GraspChecks:
             return None
         return r.solutions[0]
 
-    def check(self, T: np.ndarray, q_current: np.ndarray, pre: float, lift: float, lift_clear: bool,
+    def check(self, T: np.ndarray, q_current: np.ndarray, pre: float, lift: float, lift_clear,
               solved=None):
         """((q_grasp, q_pregrasp, q_lift), None) for one candidate pose with its pre-grasp
         distance and lift height [m] (the hand already checked on the fine field), or
-        (None, the `select.Rejection` name). solved: the IK result of T from q_current
-        (`ik_first`), when the caller has it (it does not depend on the map)."""
+        (None, the `select.Rejection` name); `check_shorter` with its distances dropped."""
+        qs, why, _, _ = self.check_shorter(T, q_current, pre, lift, lift_clear, solved)
+        return qs, why
+
+    def check_shorter(self, T: np.ndarray, q_current: np.ndarray, pre: float, lift: float, lift_clear,
+                      solved=None):
+        """(qs, why, pre, lift) as `check`, trying after the pre-grasp distance `pre` [m] the
+        shorter ones of `config.pregrasp_distances`, and after the lift height `lift` [m] the
+        lower ones of `config.lift_heights`, per grasp configuration: where the arm cannot stand
+        at the hand's longest free pre-grasp, it may at a shorter one (the straight approach
+        from it is checked with the whole robot, `edge_valid`). lift_clear: whether the held
+        target stays free along a lift, a bool for `lift` or a dict height -> bool.
+        solved: the IK result of T from q_current (`ik_first`), when the caller has it (it
+        does not depend on the map). Returns the distances used (nan on failure)."""
         config = self.config
+        pres = [pre] + [d for d in config.pregrasp_distances if d < pre]
+        lifts = [lift] + [h for h in config.lift_heights if h < lift]
+        clear = (lambda h: bool(lift_clear.get(h, False))) if isinstance(lift_clear, dict) \
+            else (lambda h: bool(lift_clear) if h == lift else False)
         r = self.ik_first(T, q_current) if solved is None else solved
         if not r.success:
-            return None, "NO_IK"
+            return None, "NO_IK", math.nan, math.nan
         free = self.valid(r.solutions)
         if not free.any():
-            return None, "IK_IN_COLLISION"
+            return None, "IK_IN_COLLISION", math.nan, math.nan
         reason = "PREGRASP_BLOCKED"
         for q_g in r.solutions[free][: config.max_ik_solutions]:
-            q_pre = self.near(offset_pose(T, -pre), q_g, self)
-            if q_pre is None:
+            found = None
+            for d in pres:
+                q_pre = self.near(offset_pose(T, -d), q_g, self)
+                if q_pre is None:
+                    continue
+                if not self.edge_valid(q_pre, q_g):
+                    reason = "APPROACH_BLOCKED"
+                    continue
+                found = (q_pre, d)
+                break
+            if found is None:
                 continue
-            if not self.edge_valid(q_pre, q_g):
-                reason = "APPROACH_BLOCKED"
-                continue
-            q_lift = self.near(offset_pose(T, up=lift), q_g, self)
-            if q_lift is None or not lift_clear or not self.edge_valid(q_g, q_lift):
-                reason = "LIFT_BLOCKED"
-                continue
-            return (q_g, q_pre, q_lift), None
-        return None, reason
+            reason = "LIFT_BLOCKED"
+            for h in lifts:
+                if not clear(h):
+                    continue
+                q_lift = self.near(offset_pose(T, up=h), q_g, self)
+                if q_lift is None or not self.edge_valid(q_g, q_lift):
+                    continue
+                return (q_g, found[0], q_lift), None, found[1], h
+        return None, reason, math.nan, math.nan

@@ -6,7 +6,7 @@ way in has been seen every candidate fails. `grasp_hypotheses` runs the same can
 approach-cone checks with unknown space taken as free (occupied voxels and the target's
 neighbours still block): the hand at the grasp, the longest free pre-grasp and the highest
 free lift on the fine field, then IK with a free pre-grasp, approach and lift
-(`checks.GraspChecks.check`). The best `n_hypotheses` by score are kept with their joint
+(`checks.GraspChecks.check_shorter`: shorter pre-grasps and lower lifts too, as the selection). The best `n_hypotheses` by score are kept with their joint
 configurations. `needed_voxels` lists, per hypothesis, the voxels that the whole arm's
 spheres (grown by `inflate`, the checker's conservative bound) occupy along its pre-grasp ->
 grasp -> lift motion and that the strict selection counts as unsafe and unknown: exactly
@@ -41,7 +41,7 @@ class HypothesisConfig:
     than min_turn [rad] (near-duplicates need the same voxels)."""
 
     n_hypotheses: int = 12
-    max_checked: int = 80
+    max_checked: int = 400
     inflate: float = 0.009
     n_interp: int = 4
     min_separation: float = 0.02
@@ -134,12 +134,12 @@ def grasp_hypotheses(target: TargetModel, occ: OccupancyMap, task: Task, q_curre
     out: list[GraspHypothesis] = []
     for k in order[: config.max_checked]:
         i = idx[k]
-        qs, why = checks.check(cands.T_world_tcp[i], q_current, pre[k], lift[k], lift_clear[lift[k]])
+        qs, why, d_pre, h_lift = checks.check_shorter(cands.T_world_tcp[i], q_current, pre[k], lift[k], lift_clear)
         if why is not None:
             stats[why] = stats.get(why, 0) + 1
         elif not _near_one(cands.T_world_tcp[i], out, config):
             out.append(GraspHypothesis(cands.T_world_tcp[i].copy(), float(cands.score[i]), *map(np.asarray, qs),
-                                       float(pre[k]), float(lift[k]), cands.take([i])))
+                                       float(d_pre), float(h_lift), cands.take([i])))
             if len(out) >= config.n_hypotheses:
                 break
     return out

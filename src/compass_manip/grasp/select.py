@@ -7,8 +7,9 @@ volume carved (`carve.py`). The path constraint covers the whole manoeuvre: a pl
 from q_current to the pre-grasp, the straight approach along the gripper's z, and the lift
 (arm and held target). The desired approach n comes from the confined space's opening (the
 hand enters against `outward`) made perpendicular to the target's long axis when it has one.
-Candidates are tried by score (ties: the smaller approach angle in 10 deg bins first, then
-the higher grasp point); among the feasible
+Candidates are tried by score (ties: the higher free lift, the smaller approach angle in 10 deg
+bins, then the higher grasp point), up to `max_checked` past the hand's checks, a pinned
+proposer's own candidates (INSPECT's hypotheses, `n_pinned`) first; among the feasible
 ones of the best score the planner takes any goal it reaches.
 
 With `constrained=False` (the paper's ablation) the highest-scored candidate with any IK
@@ -87,7 +88,9 @@ class GraspSelectConfig:
     [m] kept by the planned path to the pre-grasp; exact_fallback: when no candidate passes
     the arm's checks and the path on the field that is exact only near the target, the wrist
     and the base, run those checks again on a field exact in the whole box (the selection
-    then equals one made on that field throughout); planner: settings of that path."""
+    then equals one made on that field throughout); max_failed_plans: a search on one field
+    stops after this many planner calls that found no path (each spends the planner's
+    budget; None: no limit); planner: settings of that path."""
 
     constrained: bool = True
     max_approach_angle: float = math.radians(50.0)
@@ -98,12 +101,13 @@ class GraspSelectConfig:
     n_q7: int = 24
     max_ik_solutions: int = 3
     max_feasible: int = 4
-    max_checked: int = 60
+    max_checked: int = 400
     max_joint_step: float = 0.6
     voxel_extent: bool = True
     field_upsample: int = 2
     plan_margin: float = 0.005
     exact_fallback: bool = True
+    max_failed_plans: int | None = 6
     candidates: CandidateConfig = field(default_factory=CandidateConfig)
     planner: PlannerConfig = field(default_factory=lambda: PlannerConfig(time_budget=0.5))
 
@@ -117,6 +121,8 @@ class GraspSelectConfig:
             raise CompassInputError(f"lift_heights {self.lift_heights} m not allowed; use values in 0..0.3 m")
         if not 0.0 <= self.clearance <= 0.1:
             raise CompassInputError(f"clearance {self.clearance} m is not allowed; use 0..0.1 m")
+        if self.max_failed_plans is not None and not 1 <= self.max_failed_plans <= 1000:
+            raise CompassInputError(f"max_failed_plans {self.max_failed_plans} is not allowed; use 1..1000 or None")
         if not 1 <= self.max_feasible <= 100 or not 1 <= self.max_checked <= 100000:
             raise CompassInputError("max_feasible must be 1..100 and max_checked 1..100000")
 
@@ -197,6 +203,17 @@ def desired_approach(target: TargetModel, task: Task, tilt: float = math.radians
         if np.linalg.norm(p) > 0.2:
             a = p / np.linalg.norm(p)
     return a
+
+
+def n_pinned(proposer) -> int:
+    """How many of a proposer's first candidates are pinned (`candidates.PinnedProposer`: the
+    grasp hypotheses INSPECT found and looked at, the best-scored candidates that passed the
+    checks with unknown space free); 0 for any other proposer. The selection checks them
+    first: the candidates the hypothesis search ranked above them failed those looser
+    checks already, and the cap on the candidates checked (`max_checked`) must not drop
+    the grasp the views were taken for."""
+    pins = getattr(proposer, "pinned", None)
+    return 0 if pins is None else len(pins)
 
 
 def approach_angles(cands: GraspCandidates, n: np.ndarray) -> np.ndarray:
@@ -333,13 +350,16 @@ def select_grasp(target: TargetModel, occ: OccupancyMap, task: Task, q_current: 
     rejections[Rejection.HAND_LIFT_BLOCKED] = int(np.count_nonzero(np.isnan(lift)))
     keep = ~np.isnan(lift)
     pre_of[within[keep]], lift_of[within[keep]] = pre[keep], lift[keep]
+    hand_pre, hand_lift = pre_of.copy(), lift_of.copy()  # the hand's longest free pre-grasp / highest lift
     within = within[keep]
     if len(within) == 0:
         return done(GraspFailure.NO_APPROACH_PATH)
-    # ties of s: the higher free lift first, then the approach nearer n (10 deg bins), then the higher grasp point
+    # ties of s: the higher free lift first, then the approach nearer n (10 deg bins), then the higher grasp point;
+    # a pinned proposer's own candidates (INSPECT's hypotheses, whose way in was looked at) before all others
     z = cands.T_world_tcp[within, 2, 3]
+    pinned = (within < n_pinned(proposer)).astype(np.int64)
     order = within[np.lexsort((-z, np.round(ang[within] / math.radians(10.0)), -lift_of[within],
-                               -cands.score[within]))]
+                               -cands.score[within], -pinned))]
     stages["hand_s"] = time.perf_counter() - t_stage
     t_stage = time.perf_counter()
 
@@ -350,6 +370,7 @@ def select_grasp(target: TargetModel, occ: OccupancyMap, task: Task, q_current: 
         lift_clear = {h: chk.held_target_clear(h) for h in config.lift_heights}
         feasible: list[tuple[int, tuple]] = []
         n_free_ik = 0
+        failed = [0]  # planner calls that found no path (`max_failed_plans`)
 
         def try_plan(group):
             nonlocal plan_time
@@ -364,34 +385,54 @@ def select_grasp(target: TargetModel, occ: OccupancyMap, task: Task, q_current: 
                 idx, qs = group[res.goal_index]
                 return done(None, idx, qs, path)
             ik_rej[Rejection.NO_PATH] += len(group)
+            failed[0] += 1
             return None
 
+        reduced: list[tuple[int, tuple]] = []  # feasible only at a shorter pre-grasp / lower lift than the hand's
+
+        def level_done():
+            """Plan to the score level's full candidates, then to its reduced ones."""
+            for group in (feasible, reduced):
+                if group:
+                    out = try_plan(group)
+                    if out is not None:
+                        return out
+            return None
+
+        level = None
         for idx in order[: config.max_checked]:
-            if feasible and cands.score[idx] < cands.score[feasible[0][0]] and len(feasible) >= 1:
-                out = try_plan(feasible)  # the best score level is complete: plan to it first
+            if config.max_failed_plans is not None and failed[0] >= config.max_failed_plans:
+                return None, n_free_ik  # the planner's budget is spent on this field
+            if level is not None and cands.score[idx] < level and (feasible or reduced):
+                out = level_done()  # the best score level is complete: plan to it first
                 if out is not None:
                     return out, n_free_ik
-                feasible = []
+                feasible, reduced = [], []
+            level = cands.score[idx]
             if idx not in solved:  # the first IK does not depend on the field: once per candidate
                 solved[idx] = chk.ik_first(cands.T_world_tcp[idx], q_current)
-            qs, why = chk.check(cands.T_world_tcp[idx], q_current, pre_of[idx], lift_of[idx], lift_clear[lift_of[idx]],
-                                solved[idx])
+            qs, why, d_pre, h_lift = chk.check_shorter(cands.T_world_tcp[idx], q_current, hand_pre[idx], hand_lift[idx],
+                                                       lift_clear, solved[idx])
             why = None if why is None else Rejection[why]
             if why is not None:
                 ik_rej[why] += 1
                 n_free_ik += why not in (Rejection.NO_IK, Rejection.IK_IN_COLLISION)
                 continue
             n_free_ik += 1
+            pre_of[idx], lift_of[idx] = d_pre, h_lift  # a shorter pre-grasp or lower lift may be what the arm allows
+            if d_pre < hand_pre[idx] or h_lift < hand_lift[idx]:
+                if len(reduced) < config.max_feasible:  # ties of s: the full pre-grasp and lift first
+                    reduced.append((int(idx), qs))
+                continue
             feasible.append((int(idx), qs))
             if len(feasible) >= config.max_feasible:
                 out = try_plan(feasible)
                 if out is not None:
                     return out, n_free_ik
                 feasible = []
-        if feasible:
-            out = try_plan(feasible)
-            if out is not None:
-                return out, n_free_ik
+        out = level_done()
+        if out is not None:
+            return out, n_free_ik
         return None, n_free_ik
 
     solved: dict = {}  # candidate index -> its first IK result (shared by both fields)

@@ -1,0 +1,38 @@
+"""Capture the grasp-only harness's `select_grasp` inputs per scene (pickled), so selection
+variants can be replayed on identical maps without re-running the harness.
+
+Run: `PYTHONPATH=src:benchmarks python benchmarks/capture_select_inputs.py --levels 1 3 --count 10 --dir DIR`;
+each scene gives DIR/L{level}_{index}.pkl (the harness stops at the selection)."""
+from __future__ import annotations
+
+import argparse
+import os
+import pickle
+import sys
+
+os.environ.setdefault("MUJOCO_GL", "egl")
+
+from compass_manip.sim.certify import certified_scene
+from diag_hand_rejections import capture
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--count", type=int, default=10)
+    ap.add_argument("--start", type=int, default=0)
+    ap.add_argument("--levels", type=int, nargs="+", default=[1, 3])
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--dir", required=True)
+    args = ap.parse_args()
+    os.makedirs(args.dir, exist_ok=True)
+    for level in args.levels:
+        for index in range(args.start, args.start + args.count):
+            box = capture(certified_scene(level, index, args.seed).scene, args.seed)
+            with open(os.path.join(args.dir, f"L{level}_{index}.pkl"), "wb") as f:
+                pickle.dump(box, f)
+            print(level, index, sorted(box), flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
