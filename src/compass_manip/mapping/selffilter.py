@@ -91,30 +91,34 @@ class SphereBodyFilter:
 
 
 @njit(cache=True)
+def _in_a_sphere(x, y, z, centers, r2, lo, inv_cell, dims, start, items):
+    """Whether the point (x, y, z) [m] lies in one of the spheres of its grid cell's list."""
+    a = math.floor((x - lo[0]) * inv_cell)
+    b = math.floor((y - lo[1]) * inv_cell)
+    c = math.floor((z - lo[2]) * inv_cell)
+    if not (0 <= a < dims[0] and 0 <= b < dims[1] and 0 <= c < dims[2]):
+        return False
+    cell = (int(a) * dims[1] + int(b)) * dims[2] + int(c)
+    for t in range(start[cell], start[cell + 1]):
+        s = items[t]
+        dx = x - centers[s, 0]
+        dy = y - centers[s, 1]
+        dz = z - centers[s, 2]
+        if dx * dx + dy * dy + dz * dz <= r2[s]:
+            return True
+    return False
+
+
+@njit(cache=True)
 def _invalidate_inside(points, kind, point_kind, invalid_kind, centers, r2, lo, inv_cell, dims, start, items):
     """`_inside_spheres`'s test for the points of point_kind, setting their kind to invalid_kind."""
     n_dropped = 0
     for i in range(points.shape[0]):
         if kind[i] != point_kind:
             continue
-        x = points[i, 0]
-        y = points[i, 1]
-        z = points[i, 2]
-        a = math.floor((x - lo[0]) * inv_cell)
-        b = math.floor((y - lo[1]) * inv_cell)
-        c = math.floor((z - lo[2]) * inv_cell)
-        if not (0 <= a < dims[0] and 0 <= b < dims[1] and 0 <= c < dims[2]):
-            continue
-        cell = (int(a) * dims[1] + int(b)) * dims[2] + int(c)
-        for t in range(start[cell], start[cell + 1]):
-            s = items[t]
-            dx = x - centers[s, 0]
-            dy = y - centers[s, 1]
-            dz = z - centers[s, 2]
-            if dx * dx + dy * dy + dz * dz <= r2[s]:
-                kind[i] = invalid_kind
-                n_dropped += 1
-                break
+        if _in_a_sphere(points[i, 0], points[i, 1], points[i, 2], centers, r2, lo, inv_cell, dims, start, items):
+            kind[i] = invalid_kind
+            n_dropped += 1
     return n_dropped
 
 
@@ -156,21 +160,6 @@ def _inside_spheres(points, valid, centers, r2, lo, inv_cell, dims, start, items
     for i in range(n):
         if masked and not valid[i]:
             continue
-        x = points[i, 0]
-        y = points[i, 1]
-        z = points[i, 2]
-        a = math.floor((x - lo[0]) * inv_cell)
-        b = math.floor((y - lo[1]) * inv_cell)
-        c = math.floor((z - lo[2]) * inv_cell)
-        if not (0 <= a < dims[0] and 0 <= b < dims[1] and 0 <= c < dims[2]):
-            continue
-        cell = (int(a) * dims[1] + int(b)) * dims[2] + int(c)
-        for t in range(start[cell], start[cell + 1]):
-            s = items[t]
-            dx = x - centers[s, 0]
-            dy = y - centers[s, 1]
-            dz = z - centers[s, 2]
-            if dx * dx + dy * dy + dz * dz <= r2[s]:
-                out[i] = True
-                break
+        out[i] = _in_a_sphere(points[i, 0], points[i, 1], points[i, 2], centers, r2, lo, inv_cell, dims, start,
+                              items)
     return out
