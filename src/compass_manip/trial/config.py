@@ -85,7 +85,8 @@ class GraspTrialConfig:
     with its fine map, 20 INSPECT views and an 8 cm halo (`benchmarks/trial_variants.py`,
     `grasp_inspect_halo`) gave 3/20 end to end on seed 101 with 0 collision trials, but 0/20
     with 1 collision trial on the fresh seed 2026 (link 3 on a base wall in the transfer,
-    through unseen space the near-body assumption took as free): not the default.
+    through unseen space the near-body assumption took as free); with the selection's
+    400-candidate arm stage 6/20 and 3/20 with 1 and 2 such collision trials: not the default.
     outside_free: the unknown space the
     method's own validity checker takes as free (outside the confined space's box, farther
     than its obstacle halo from anything seen; `exploration.world_model.assumed_free_mask`)
