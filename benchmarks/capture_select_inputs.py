@@ -13,15 +13,11 @@ import sys
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 from compass_manip.sim.certify import certified_scene
-from diag_hand_rejections import capture
+from diag_hand_rejections import capture, scene_arguments
 
 
 def main() -> int:
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--count", type=int, default=10)
-    ap.add_argument("--start", type=int, default=0)
-    ap.add_argument("--levels", type=int, nargs="+", default=[1, 3])
-    ap.add_argument("--seed", type=int, default=0)
+    ap = scene_arguments(argparse.ArgumentParser())
     ap.add_argument("--dir", required=True)
     args = ap.parse_args()
     os.makedirs(args.dir, exist_ok=True)

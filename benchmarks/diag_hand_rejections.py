@@ -225,12 +225,17 @@ def diagnose(level: int, index: int, seed: int) -> dict:
     return rec
 
 
-def main() -> int:
-    ap = argparse.ArgumentParser()
+def scene_arguments(ap: argparse.ArgumentParser) -> argparse.ArgumentParser:
+    """The scene set's arguments these diagnosis scripts share (--count, --start, --levels, --seed)."""
     ap.add_argument("--count", type=int, default=10)
     ap.add_argument("--start", type=int, default=0)
     ap.add_argument("--levels", type=int, nargs="+", default=[1, 3])
     ap.add_argument("--seed", type=int, default=0)
+    return ap
+
+
+def main() -> int:
+    ap = scene_arguments(argparse.ArgumentParser())
     ap.add_argument("--only", default=None, help="comma-separated L:I pairs to run (default all)")
     args = ap.parse_args()
     only = None if args.only is None else {tuple(int(x) for x in p.split(":")) for p in args.only.split(",")}
