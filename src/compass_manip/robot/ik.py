@@ -151,6 +151,9 @@ class PandaIK:
         self.T_base_world = inv_T(L[0])
         #: frankik's flange frame (panda_link8) in the hand frame: the 45 deg mount, from the model
         self.T_hand_link8 = inv_T(L[self.kin.hand_index]) @ L[i8]
+        self._kernel_args = tuple(self.kin.kernel_args())
+        #: frame -> hand flange, per frame name (the same inv_T as computed on each call)
+        self._T_frame_hand = {f: inv_T(self.kin.T_hand_frame(f)) for f in ("tcp", "cam", "hand")}
 
     def solve(self, T_world_frame: np.ndarray, frame: str, q_ref: np.ndarray,
               n_q7: int | None = None, validity=None, retry: bool = True, cache: dict | None = None) -> IKResult:
@@ -164,7 +167,10 @@ class PandaIK:
         q_ref = check_q(q_ref, "q_ref")
         config = self.config
         n_q7 = config.n_q7 if n_q7 is None else _whole(n_q7, "n_q7", 1, 1000)
-        T_world_hand = T_world_frame @ inv_T(self.kin.T_hand_frame(frame))
+        T_frame_hand = self._T_frame_hand.get(frame) if isinstance(frame, str) else None
+        if T_frame_hand is None:  # not a frame name: T_hand_frame says what is allowed
+            T_frame_hand = inv_T(self.kin.T_hand_frame(frame))
+        T_world_hand = T_world_frame @ T_frame_hand
         T_base_flange = self.T_base_world @ T_world_hand @ self.T_hand_link8
         S, pe, re, n_cand = self._sweep_cached(T_world_hand, T_base_flange, q_ref, n_q7, cache)
         if retry and S.shape[0] == 0 and config.n_q7_retry > n_q7:
@@ -188,24 +194,41 @@ class PandaIK:
 
     def _sweep(self, T_world_hand, T_base_flange, q_ref, n_q7):
         """Refined analytic solutions (k,7), pos_err (k,), rot_err (k,) over a q7 sweep, and
-        the number of analytic candidates within the limits."""
+        the number of analytic candidates within the limits. The candidates are refined in
+        one compiled call (`refine_batch_kernel`: the same arithmetic as `refine_kernel` on
+        each, tests/test_ik_batch.py)."""
         config = self.config
         q7s = np.concatenate([[q_ref[6]], np.linspace(Q_MIN[6], Q_MAX[6], n_q7 + 2)[1:-1]])
-        cands = []
-        for q7 in q7s:
-            S = self._frankik.ik_full(T_base_flange, q_ref, float(q7))
-            cands.extend(S[np.all(np.isfinite(S), axis=1)])
-        args = self.kin.kernel_args()
-        sols, pes, res = [], [], []
-        for q in cands:
-            q = np.clip(q, Q_MIN, Q_MAX)
-            qr, pe, re = refine_kernel(q, T_world_hand, self.kin.hand_index, *args, Q_MIN, Q_MAX,
-                                       config.refine_iters, config.damping, config.tol_pos, config.tol_rot)
-            if pe <= config.tol_pos and re <= config.tol_rot:
-                sols.append(qr)
-                pes.append(pe)
-                res.append(re)
-        return np.array(sols).reshape(-1, 7), np.array(pes), np.array(res), len(cands)
+        ik_full = self._frankik.ik_full
+        C = np.concatenate([ik_full(T_base_flange, q_ref, float(q7)) for q7 in q7s])
+        C = np.ascontiguousarray(C[np.isfinite(C).all(axis=1)], dtype=np.float64)
+        Q, pe, re, ok = refine_batch_kernel(C, T_world_hand, self.kin.hand_index, *self._kernel_args, Q_MIN, Q_MAX,
+                                            config.refine_iters, config.damping, config.tol_pos, config.tol_rot)
+        return Q[ok].reshape(-1, 7), pe[ok], re[ok], len(C)
+
+
+@nb.njit(cache=True)
+def refine_batch_kernel(C, T_world_target_hand, hand_index, finger_pos, parent, T_parent_link, joint_kind,
+                        joint_index, axis, anchor, qmin, qmax, iters, damping, tol_pos, tol_rot):
+    """`refine_kernel` on every candidate row of C (n, 7) [rad], each clipped to qmin..qmax
+    first: (Q (n, 7), pos_err (n,) [m], rot_err (n,) [rad], ok (n,) where both errors are
+    within tol_pos / tol_rot)."""
+    n = C.shape[0]
+    Q = np.empty((n, 7))
+    pe = np.empty(n)
+    re = np.empty(n)
+    ok = np.zeros(n, np.bool_)
+    q0 = np.empty(7)
+    for i in range(n):
+        for j in range(7):
+            q0[j] = min(qmax[j], max(qmin[j], C[i, j]))
+        q, p, r = refine_kernel(q0, T_world_target_hand, hand_index, finger_pos, parent, T_parent_link, joint_kind,
+                                joint_index, axis, anchor, qmin, qmax, iters, damping, tol_pos, tol_rot)
+        Q[i] = q
+        pe[i] = p
+        re[i] = r
+        ok[i] = p <= tol_pos and r <= tol_rot
+    return Q, pe, re, ok
 
 
 def _whole(value, name: str, low: int, high: int) -> int:
@@ -218,16 +241,30 @@ def _whole(value, name: str, low: int, high: int) -> int:
 def _ordered(S, pe, re, T, q_ref, tol, frame, failure) -> IKResult:
     order = np.argsort(np.linalg.norm(S - q_ref, axis=1), kind="stable")
     # greedy dedupe in that order: a solution is kept unless a kept one is within tol (max
-    # joint difference, symmetric); one pairwise matrix instead of a Python loop over pairs
-    near = np.max(np.abs(S[:, None, :] - S[None, :, :]), axis=2) <= tol if len(S) else np.zeros((0, 0), bool)
-    keep: list[int] = []
-    blocked = np.zeros(len(S), dtype=bool)
-    for i in order:
-        if not blocked[i]:
-            keep.append(int(i))
-            blocked |= near[i]
-    k = np.array(keep, np.int64)
+    # joint difference, symmetric)
+    k = _dedupe_kernel(np.ascontiguousarray(S, dtype=np.float64).reshape(-1, 7), order.astype(np.int64), float(tol))
     return IKResult(S[k].reshape(-1, 7), pe[k], re[k], np.array(T)[k].reshape(-1, 4, 4), frame, failure)
+
+
+@nb.njit(cache=True)
+def _dedupe_kernel(S, order, tol):
+    """Indices of S (n, 7) kept, in `order`: each row unless a kept row is within tol of it
+    (max joint difference)."""
+    keep = np.empty(len(order), np.int64)
+    n_keep = 0
+    for i in order:
+        near = False
+        for t in range(n_keep):
+            d = 0.0
+            for j in range(S.shape[1]):
+                d = max(d, abs(S[i, j] - S[keep[t], j]))
+            if d <= tol:
+                near = True
+                break
+        if not near:
+            keep[n_keep] = i
+            n_keep += 1
+    return keep[:n_keep]
 
 
 @lru_cache(maxsize=8)
