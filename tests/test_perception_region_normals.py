@@ -33,3 +33,25 @@ def test_window_normals_equal_whole_image_normals():
         assert np.array_equal(ok, ok_all[sl])
         assert np.array_equal(n, n_all[sl], equal_nan=True)
     assert ok_all.sum() > 500  # the case has valid normals to compare
+
+
+def test_backprojection_equals_the_broadcast_formula_bit_for_bit():
+    rng = np.random.default_rng(7)
+    H, W = 24, 32
+    depth = rng.uniform(0.1, 2.0, (H, W)).astype(np.float32)
+    depth[rng.random((H, W)) < 0.1] = np.inf
+    depth[0, :4] = 0.0
+    K = np.array([[40.0, 0, 15.5], [0, 41.0, 11.5], [0, 0, 1]])
+    a = rng.normal(size=3)
+    c, s = np.cos(0.7), np.sin(0.7)
+    T = np.eye(4)
+    T[:3, :3] = np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]]) @ np.array([[1, 0, 0], [0, c, s], [0, -s, c]])
+    T[:3, 3] = a
+    pw, valid = backproject_image(depth, K, T)
+    z = depth.astype(np.float64)
+    ok = np.isfinite(z) & (z > 0)
+    u, v = np.meshgrid(np.arange(W, dtype=np.float64), np.arange(H, dtype=np.float64))
+    zz = np.where(ok, z, np.nan)
+    pc = np.stack([(u - K[0, 2]) / K[0, 0] * zz, (v - K[1, 2]) / K[1, 1] * zz, zz], axis=-1)
+    assert np.array_equal(valid, ok) and np.array_equal(pw, pc @ T[:3, :3].T + T[:3, 3], equal_nan=True)
+    assert np.isnan(pw[~ok]).all() and np.isfinite(pw[ok]).all()
