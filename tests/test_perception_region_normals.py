@@ -55,3 +55,35 @@ def test_backprojection_equals_the_broadcast_formula_bit_for_bit():
     pc = np.stack([(u - K[0, 2]) / K[0, 0] * zz, (v - K[1, 2]) / K[1, 1] * zz, zz], axis=-1)
     assert np.array_equal(valid, ok) and np.array_equal(pw, pc @ T[:3, :3].T + T[:3, 3], equal_nan=True)
     assert np.isnan(pw[~ok]).all() and np.isfinite(pw[ok]).all()
+
+
+def _surface_normals_reference(points, step=2, max_jump=0.01):
+    """`surface_normals` as it was written before (norms and division broadcast over the last axis)."""
+    H, W, _ = points.shape
+    n = np.full_like(points, np.nan)
+    ok = np.zeros((H, W), bool)
+    s = step
+    c = points[s:-s, s:-s]
+    du = points[s:-s, 2 * s:] - points[s:-s, :-2 * s]
+    dv = points[2 * s:, s:-s] - points[:-2 * s, s:-s]
+    cr = np.cross(du, dv)
+    norm = np.linalg.norm(cr, axis=-1)
+    with np.errstate(invalid="ignore"):
+        jump = np.maximum(np.linalg.norm(du, axis=-1), np.linalg.norm(dv, axis=-1))
+        good = np.isfinite(norm) & (norm > 1e-12) & (jump < 2 * max_jump) & np.all(np.isfinite(c), axis=-1)
+    inner = np.full_like(cr, np.nan)
+    inner[good] = cr[good] / norm[good, None]
+    n[s:-s, s:-s] = inner
+    ok[s:-s, s:-s] = good
+    return n, ok
+
+
+def test_surface_normals_equal_the_broadcast_formulation_bit_for_bit():
+    rng = np.random.default_rng(11)
+    pts = _points(rng)
+    pts = pts + rng.normal(0.0, 0.002, pts.shape)  # noisy: normals in every direction, some jumps
+    for step, jump in ((2, 0.01), (1, 0.005), (3, 0.05)):
+        n, ok = surface_normals(pts, step, jump)
+        n0, ok0 = _surface_normals_reference(pts, step, jump)
+        assert np.array_equal(ok, ok0) and np.array_equal(n, n0, equal_nan=True)
+        assert 0 < ok.sum() < ok.size
