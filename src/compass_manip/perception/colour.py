@@ -74,8 +74,8 @@ def white_grey_split(mask: np.ndarray, rgb: np.ndarray, colour: str) -> np.ndarr
     brightness relative to the image, the bottle, the brightest achromatic thing in view,
     had passed as the grey box on level 1, scene 4, seed 2026)."""
     if colour in _ACHROMATIC and mask.any():
-        warm = _blue_ratio(np.asarray(rgb)[mask]) < _TINT_SPLIT  # the mask's pixels only (per pixel: the same)
-        mask[mask] = warm if colour == "white" else ~warm
+        warm = _blue_ratio(rgb) < _TINT_SPLIT
+        mask &= warm if colour == "white" else ~warm
     return mask
 
 
