@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 from compass_manip.geometry import is_rigid
-from compass_manip.robot.ik import IKConfig, IKResult, PandaIK, _ordered, refine_kernel
+from compass_manip.robot.ik import IKConfig, IKResult, PandaIK, _ordered
+from compass_manip.robot.ik_kernels import refine_kernel
 from compass_manip.robot.model import Q_MAX, Q_MIN
 from compass_manip.exploration.viewpoints import sample_direction_in_cone, view_pose
 
