@@ -100,6 +100,10 @@ def test_manipulability_and_batches(kin):
         ref = np.empty((6, 7))
         jacobian_kernel(Lb[n], P[n], t.joint_kind, t.joint_index, t.axis, t.anchor, ref)
         assert np.array_equal(Jb[n], ref)
+    # given the links the caller already has (the trial's metrics), the same numbers
+    assert np.array_equal(kin.manipulability_batch(Q, links=Lb), mb)
+    assert np.array_equal(kin.jacobian_batch(Q, links=Lb), Jb)
+    assert np.array_equal((Lb[:, kin.hand_index] @ kin.T_hand_frame("tcp"))[:, :3, 3], Tb[:, :3, 3])
     for n, q in enumerate(Q):
         J = kin.jacobian(q)
         np.testing.assert_allclose(Jb[n], J, atol=1e-14)

@@ -126,3 +126,28 @@ def test_inside_where_equals_the_filter_on_the_valid_points_only():
     assert np.array_equal(body.inside_where(p, valid), expect) and expect.sum() > 0
     with pytest.raises(CompassInputError, match="valid"):
         body.inside_where(p, valid[:10])
+
+
+def test_the_bounding_box_pretest_keeps_points_on_the_outermost_spheres_surfaces():
+    # points just inside / outside the extreme spheres along each axis: the box bounds the
+    # spheres (with the margin) and every kernel gives the definition's answer there
+    rng = np.random.default_rng(4)
+    c = rng.uniform(-0.3, 0.3, (40, 3))
+    r = rng.uniform(0.01, 0.1, 40)
+    f = SphereBodyFilter(c, r, margin=0.01)
+    pts = []
+    for axis in range(3):
+        for sign in (-1.0, 1.0):
+            s = int(np.argmax(sign * (c[:, axis] + sign * r)))  # the sphere reaching farthest that way
+            for eps in (-1e-9, 1e-9, -1e-4, 1e-4):
+                p = c[s].copy()
+                p[axis] += sign * (r[s] + 0.01 + eps)
+                pts.append(p)
+    p = np.array(pts + list(rng.uniform(-0.5, 0.5, (3000, 3))))
+    expect = ((p[:, None] - c[None]) ** 2).sum(-1) <= ((r + 0.01) ** 2)[None]
+    expect = expect.any(axis=1)
+    assert expect[:24].sum() == 12  # half of the surface points are inside
+    assert np.array_equal(f(p), expect)
+    assert np.array_equal(f.inside_where(p, np.ones(len(p), bool)), expect)
+    kind = np.ones(len(p), np.uint8)
+    assert f.invalidate_inside(p, kind, 1, 0) == expect.sum() and np.array_equal(kind == 0, expect)

@@ -54,3 +54,18 @@ def test_white_and_grey_are_told_apart_by_tint_under_any_shading():
     cache = ColourMaskCache(config)
     for colour in ("white", "grey"):
         assert np.array_equal(cache(img, colour), colour_mask(img, colour, config))
+
+
+def test_white_grey_split_on_the_masks_pixels_equals_the_whole_image_rule():
+    from compass_manip.perception.colour import _TINT_SPLIT, _blue_ratio, white_grey_split
+
+    rng = np.random.default_rng(3)
+    img = rng.integers(0, 256, (50, 70, 3), dtype=np.uint8)
+    img[:10] = (np.asarray(COLOURS["white"]) * 200).astype(np.uint8)  # warm and neutral achromatic rows
+    img[10:20] = (np.asarray(COLOURS["grey"]) * 250).astype(np.uint8)
+    for colour in ("white", "grey", "red"):
+        mask = rng.random((50, 70)) < 0.5
+        warm = _blue_ratio(img) < _TINT_SPLIT  # the rule on the whole image, as it was computed
+        want = mask & ((warm if colour == "white" else ~warm) if colour in ("white", "grey") else True)
+        got = white_grey_split(mask.copy(), img, colour)
+        assert np.array_equal(got, want) and 0 < got.sum() < mask.sum() + (colour == "red")

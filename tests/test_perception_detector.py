@@ -1,6 +1,8 @@
 """The appearance detector on scenes built here: it finds a visible target, ignores
 distractors sharing its colour or its shape (or too big to be it), and reports nothing
 when the target is hidden. Also the learned-detector plug-in adapter."""
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -241,3 +243,23 @@ def test_self_masked_detector_hands_the_masked_points_on_as_the_inner_detector_w
     for x, y in zip(got, expect):
         assert (x.bbox, x.n_pixels, x.verdict, x.shape, x.score) == (y.bbox, y.n_pixels, y.verdict, y.shape, y.score)
         assert np.array_equal(x.points_world, y.points_world) and np.array_equal(x.extents, y.extents)
+
+
+def test_may_detect_then_detect_on_one_image_computes_its_colour_mask_once():
+    same_colour = Primitive("red_can", "cylinder", (0.025, 0.06), (0.66, 0.0, FLOOR_Z + 0.06), 0.0, RED)
+    frame, _ = _observe(_scene([same_colour]))
+    obs, query = frame.observation(), target_query(TARGET)
+    det = AppearanceDetector()
+    calls = []
+    inner = det._colours
+    det._colours = lambda rgb, colour: calls.append(colour) or inner(rgb, colour)
+    assert det.may_detect(obs, query)
+    got = det(obs, query)
+    assert len(calls) == 1  # the second use took the kept mask
+    want = AppearanceDetector()(obs, query)
+    assert [(d.bbox, d.verdict, d.n_pixels) for d in got] == [(d.bbox, d.verdict, d.n_pixels) for d in want]
+    assert any(d.accepted for d in got)
+    # a new image (even with equal pixels) is computed again; the kept mask was not written to
+    again = det(replace(obs, rgb=obs.rgb.copy()), query)
+    assert len(calls) == 2 and [d.bbox for d in again] == [d.bbox for d in want]
+    assert np.array_equal(det._colour_mask(obs.rgb, query.colour), inner(obs.rgb, query.colour))

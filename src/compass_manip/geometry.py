@@ -1,6 +1,9 @@
 """SE(3) helpers on 4x4 numpy arrays. Lengths in [m], angles in [rad]."""
 from __future__ import annotations
 
+import math
+
+import numba as nb
 import numpy as np
 
 from .errors import CompassInputError
@@ -26,22 +29,42 @@ def inv_T(T: np.ndarray) -> np.ndarray:
 
 
 def is_rigid(T: np.ndarray, tol: float = 1e-6) -> bool:
-    """True if T is a finite 4x4 rigid transform (orthonormal, det +1, last row 0 0 0 1)."""
+    """True if T is a finite 4x4 rigid transform (orthonormal, det +1, last row 0 0 0 1):
+    |R^T R - I| <= tol + 1e-5 I elementwise (np.allclose's test), |det R - 1| < tol and the
+    last row within tol + 1e-5 |row| of 0 0 0 1 (one compiled test: it runs for every IK
+    target)."""
     T = np.asarray(T)
-    if T.shape != (4, 4) or not np.all(np.isfinite(T)):
+    if T.shape != (4, 4):
         return False
-    R = T[:3, :3]
-    # np.allclose(a, b, atol=tol) written out (|a - b| <= tol + 1e-5 |b|): the same test, without
-    # its per-call overhead (this runs for every IK target)
-    return bool(
-        np.all(np.abs(R.T @ R - _EYE3) <= tol + 1e-5 * _EYE3)
-        and abs(np.linalg.det(R) - 1.0) < tol
-        and np.all(np.abs(T[3] - _ROW3) <= tol + 1e-5 * _ROW3)
-    )
+    if T.dtype != np.float64:
+        try:
+            T = T.astype(np.float64)
+        except (TypeError, ValueError):
+            return False
+    return bool(_is_rigid_kernel(T, float(tol)))
 
 
-_EYE3 = np.eye(3)
-_ROW3 = np.array([0.0, 0.0, 0.0, 1.0])
+@nb.njit(cache=True)
+def _is_rigid_kernel(T, tol):
+    for i in range(4):
+        for j in range(4):
+            if not math.isfinite(T[i, j]):
+                return False
+    for i in range(3):
+        for j in range(3):
+            g = T[0, i] * T[0, j] + T[1, i] * T[1, j] + T[2, i] * T[2, j]
+            e = 1.0 if i == j else 0.0
+            if not abs(g - e) <= tol + 1e-5 * e:
+                return False
+    det = (T[0, 0] * (T[1, 1] * T[2, 2] - T[1, 2] * T[2, 1]) - T[0, 1] * (T[1, 0] * T[2, 2] - T[1, 2] * T[2, 0])
+           + T[0, 2] * (T[1, 0] * T[2, 1] - T[1, 1] * T[2, 0]))
+    if not abs(det - 1.0) < tol:
+        return False
+    for j in range(4):
+        e = 1.0 if j == 3 else 0.0
+        if not abs(T[3, j] - e) <= tol + 1e-5 * e:
+            return False
+    return True
 
 
 def check_rigid(T: np.ndarray, name: str = "T") -> np.ndarray:

@@ -55,18 +55,22 @@ class SphereBodyFilter:
             a = np.clip(np.floor((lo_s - self._lo) / self._cell).astype(np.int64), 0, self._dims - 1)
             b = np.clip(np.floor((hi_s - self._lo) / self._cell).astype(np.int64), 0, self._dims - 1)
             self._start, self._items = _cell_lists(a, b, self._dims)
+            # the spheres' bounding box, padded far beyond rounding: a point outside it is in
+            # no sphere, and the box test (six comparisons) is much cheaper than the cell lookup
+            self._box = np.concatenate([lo_s.min(axis=0) - _BOX_PAD_M, hi_s.max(axis=0) + _BOX_PAD_M])
         else:
             self._lo = np.zeros(3)
             self._cell = 1.0
             self._dims = np.zeros(3, np.int64)
             self._items = np.zeros(0, np.int64)
             self._start = np.zeros(1, np.int64)
+            self._box = np.array([np.inf, np.inf, np.inf, -np.inf, -np.inf, -np.inf])
 
     def __call__(self, points_world: np.ndarray) -> np.ndarray:
         p = float_array(points_world, "points_world", "(N, 3) numbers [m]")
         if p.ndim != 2 or p.shape[1] != 3:
             raise CompassInputError(f"points_world must have shape (N, 3), got {p.shape}")
-        return _inside_spheres(np.ascontiguousarray(p), _ALL, self.centers_world, self._r2, self._lo,
+        return _inside_spheres(np.ascontiguousarray(p), _ALL, self.centers_world, self._r2, self._box, self._lo,
                                1.0 / self._cell, self._dims, self._start, self._items)
 
     def inside_where(self, points_world: np.ndarray, valid: np.ndarray) -> np.ndarray:
@@ -77,7 +81,7 @@ class SphereBodyFilter:
         v = np.ascontiguousarray(valid, dtype=np.bool_).reshape(-1)
         if len(v) != len(p) or len(v) == 0:
             raise CompassInputError(f"valid has {len(v)} entries for {len(p)} points; give one per point (N >= 1)")
-        return _inside_spheres(p, v, self.centers_world, self._r2, self._lo, 1.0 / self._cell, self._dims,
+        return _inside_spheres(p, v, self.centers_world, self._r2, self._box, self._lo, 1.0 / self._cell, self._dims,
                                self._start, self._items)
 
     def invalidate_inside(self, points_world: np.ndarray, kind: np.ndarray, point_kind: int, invalid_kind: int) -> int:
@@ -86,13 +90,18 @@ class SphereBodyFilter:
         The same as `kind[m[self(points_world[m])]] = invalid_kind` with m the points of
         point_kind, in one compiled pass (no copies of the image's points)."""
         return int(_invalidate_inside(points_world, kind, np.uint8(point_kind), np.uint8(invalid_kind),
-                                      self.centers_world, self._r2, self._lo, 1.0 / self._cell, self._dims,
+                                      self.centers_world, self._r2, self._box, self._lo, 1.0 / self._cell, self._dims,
                                       self._start, self._items))
 
 
-@njit(cache=True)
-def _in_a_sphere(x, y, z, centers, r2, lo, inv_cell, dims, start, items):
-    """Whether the point (x, y, z) [m] lies in one of the spheres of its grid cell's list."""
+@njit(cache=True, inline="always")
+def _in_a_sphere(x, y, z, centers, r2, box, lo, inv_cell, dims, start, items):
+    """Whether the point (x, y, z) [m] lies in one of the spheres of its grid cell's list
+    (box: the spheres' padded bounding box (lo xyz, hi xyz) [m]: a point beyond it is in none;
+    the callers test it first too, in their own loops: a call per point costs more than the
+    six comparisons)."""
+    if x < box[0] or y < box[1] or z < box[2] or x > box[3] or y > box[4] or z > box[5]:
+        return False
     a = math.floor((x - lo[0]) * inv_cell)
     b = math.floor((y - lo[1]) * inv_cell)
     c = math.floor((z - lo[2]) * inv_cell)
@@ -110,13 +119,16 @@ def _in_a_sphere(x, y, z, centers, r2, lo, inv_cell, dims, start, items):
 
 
 @njit(cache=True)
-def _invalidate_inside(points, kind, point_kind, invalid_kind, centers, r2, lo, inv_cell, dims, start, items):
+def _invalidate_inside(points, kind, point_kind, invalid_kind, centers, r2, box, lo, inv_cell, dims, start, items):
     """`_inside_spheres`'s test for the points of point_kind, setting their kind to invalid_kind."""
     n_dropped = 0
     for i in range(points.shape[0]):
         if kind[i] != point_kind:
             continue
-        if _in_a_sphere(points[i, 0], points[i, 1], points[i, 2], centers, r2, lo, inv_cell, dims, start, items):
+        x, y, z = points[i, 0], points[i, 1], points[i, 2]
+        if x < box[0] or y < box[1] or z < box[2] or x > box[3] or y > box[4] or z > box[5]:
+            continue
+        if _in_a_sphere(points[i, 0], points[i, 1], points[i, 2], centers, r2, box, lo, inv_cell, dims, start, items):
             kind[i] = invalid_kind
             n_dropped += 1
     return n_dropped
@@ -147,12 +159,15 @@ def _cell_lists(a, b, dims):
     return start, items
 
 
+#: padding [m] of the spheres' bounding box in the point test (rounding is ~1e-16 m)
+_BOX_PAD_M = 1e-6
+
 #: `_inside_spheres`'s valid mask for "every point"
 _ALL = np.zeros(0, np.bool_)
 
 
 @njit(cache=True)
-def _inside_spheres(points, valid, centers, r2, lo, inv_cell, dims, start, items):
+def _inside_spheres(points, valid, centers, r2, box, lo, inv_cell, dims, start, items):
     """Points inside a sphere; valid: (N,) bool (only those tested, the rest False) or empty (all)."""
     n = points.shape[0]
     out = np.zeros(n, np.bool_)
@@ -160,6 +175,9 @@ def _inside_spheres(points, valid, centers, r2, lo, inv_cell, dims, start, items
     for i in range(n):
         if masked and not valid[i]:
             continue
-        out[i] = _in_a_sphere(points[i, 0], points[i, 1], points[i, 2], centers, r2, lo, inv_cell, dims, start,
+        x, y, z = points[i, 0], points[i, 1], points[i, 2]
+        if x < box[0] or y < box[1] or z < box[2] or x > box[3] or y > box[4] or z > box[5]:
+            continue
+        out[i] = _in_a_sphere(points[i, 0], points[i, 1], points[i, 2], centers, r2, box, lo, inv_cell, dims, start,
                               items)
     return out

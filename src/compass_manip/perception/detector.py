@@ -132,6 +132,18 @@ class AppearanceDetector:
     def __init__(self, config: DetectorConfig | None = None) -> None:
         self.config = config or DetectorConfig()
         self._colours = ColourMaskCache(self.config)
+        self._last: tuple | None = None  # (rgb array, colour, its colour mask): the last image's
+
+    def _colour_mask(self, rgb: np.ndarray, colour: str) -> np.ndarray:
+        """A new array equal to `self._colours(rgb, colour)`; the mask of the last image asked
+        for is kept (with a reference to that image), so `may_detect` and `__call__` on the same
+        observation compute it once (an observation's arrays are never written to)."""
+        last = self._last
+        if last is not None and last[0] is rgb and last[1] == colour:
+            return last[2].copy()
+        mask = self._colours(rgb, colour)
+        self._last = (rgb, colour, mask.copy())
+        return mask
 
     def may_detect(self, obs: Observation, query: TargetQuery) -> bool:
         """False when this detector finds nothing in obs nor in obs with the depth of any
@@ -141,7 +153,7 @@ class AppearanceDetector:
         if obs.rgb is None:
             return True  # __call__ says what is wrong
         depth = np.asarray(obs.depth, dtype=np.float32)
-        mask = self._colours(obs.rgb, query.colour)
+        mask = self._colour_mask(obs.rgb, query.colour)
         mask &= np.isfinite(depth) & (depth > 0) & (depth <= self.config.max_depth)
         return bool(mask.sum() >= self.config.min_pixels)
 
@@ -153,7 +165,7 @@ class AppearanceDetector:
             raise CompassInputError("AppearanceDetector needs an RGB image; the observation has none")
         config = self.config
         depth = np.asarray(obs.depth, dtype=np.float32)
-        mask = self._colours(obs.rgb, query.colour)  # = colour_mask(obs.rgb, query.colour, config)
+        mask = self._colour_mask(obs.rgb, query.colour)  # = colour_mask(obs.rgb, query.colour, config)
         mask &= np.isfinite(depth) & (depth > 0) & (depth <= config.max_depth)
         if mask.sum() < config.min_pixels:
             return ()

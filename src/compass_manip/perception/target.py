@@ -5,7 +5,18 @@ measurement); K is the 3x3 pinhole matrix [px]; T_world_cam the OpenCV optical f
 """
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
+
+
+@lru_cache(maxsize=4)
+def _pixel_grid(H: int, W: int) -> tuple[np.ndarray, np.ndarray]:
+    """Pixel column and row coordinates (H, W) float64 (read-only, shared between calls)."""
+    u, v = np.meshgrid(np.arange(W, dtype=np.float64), np.arange(H, dtype=np.float64))
+    u.flags.writeable = False
+    v.flags.writeable = False
+    return u, v
 
 
 def backproject_image(depth: np.ndarray, K: np.ndarray, T_world_cam: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -14,10 +25,12 @@ def backproject_image(depth: np.ndarray, K: np.ndarray, T_world_cam: np.ndarray)
     H, W = depth.shape
     z = np.asarray(depth, dtype=np.float64)
     valid = np.isfinite(z) & (z > 0)
-    u, v = np.meshgrid(np.arange(W, dtype=np.float64), np.arange(H, dtype=np.float64))
+    u, v = _pixel_grid(H, W)
     zz = np.where(valid, z, np.nan)
     pc = np.stack([(u - K[0, 2]) / K[0, 0] * zz, (v - K[1, 2]) / K[1, 1] * zz, zz], axis=-1)
-    pw = pc @ T_world_cam[:3, :3].T + T_world_cam[:3, 3]
+    pw = pc @ T_world_cam[:3, :3].T
+    for i in range(3):  # = pw + T_world_cam[:3, 3]: a length-3 broadcast over (H, W, 3) is 6x slower
+        pw[..., i] += T_world_cam[i, 3]
     return pw, valid
 
 
@@ -36,15 +49,24 @@ def surface_normals(points: np.ndarray, step: int = 2, max_jump: float = 0.01) -
     du = points[s:-s, 2 * s:] - points[s:-s, :-2 * s]
     dv = points[2 * s:, s:-s] - points[:-2 * s, s:-s]
     cr = np.cross(du, dv)
-    norm = np.linalg.norm(cr, axis=-1)
+    norm = _norm3(cr)
     with np.errstate(invalid="ignore"):
-        jump = np.maximum(np.linalg.norm(du, axis=-1), np.linalg.norm(dv, axis=-1))
-        good = np.isfinite(norm) & (norm > 1e-12) & (jump < 2 * max_jump) & np.all(np.isfinite(c), axis=-1)
-    inner = np.full_like(cr, np.nan)
-    inner[good] = cr[good] / norm[good, None]
-    n[s:-s, s:-s] = inner
+        jump = np.maximum(_norm3(du), _norm3(dv))
+        good = (np.isfinite(norm) & (norm > 1e-12) & (jump < 2 * max_jump) & np.isfinite(c[..., 0])
+                & np.isfinite(c[..., 1]) & np.isfinite(c[..., 2]))
+    inner = n[s:-s, s:-s]
+    normal = norm[good]
+    for i in range(3):  # = cr[good] / norm[good, None], one component at a time
+        inner[..., i][good] = cr[..., i][good] / normal
     ok[s:-s, s:-s] = good
     return n, ok
+
+
+def _norm3(x: np.ndarray) -> np.ndarray:
+    """`np.linalg.norm(x, axis=-1)` of (..., 3) vectors, the same numbers (numpy sums the
+    three squares in order), without its slow reduction over a length-3 axis."""
+    s = x * x
+    return np.sqrt((s[..., 0] + s[..., 1]) + s[..., 2])
 
 
 def region_normals(points: np.ndarray, sl: tuple[slice, slice], step: int = 2,

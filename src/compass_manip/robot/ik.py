@@ -14,12 +14,12 @@ from dataclasses import dataclass
 from enum import Enum
 from functools import lru_cache
 
-import numba as nb
 import numpy as np
 
 from ..errors import CompassInputError, instance_of, real_number, check_field_types
 from ..geometry import check_rigid, inv_T, look_at
-from .kinematics import PandaKinematics, fk_links_kernel, jacobian_kernel
+from .ik_kernels import dedupe_kernel, refine_batch_kernel
+from .kinematics import PandaKinematics
 from .model import Q_MAX, Q_MIN, RobotConfig, check_q
 
 
@@ -82,55 +82,6 @@ class IKResult:
         return self.solutions[0] if self.success else None
 
 
-@nb.njit(cache=True)
-def _rot_log(R):
-    """Rotation vector [rad] of a rotation matrix."""
-    c = min(1.0, max(-1.0, 0.5 * (R[0, 0] + R[1, 1] + R[2, 2] - 1.0)))
-    a = math.acos(c)
-    v = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
-    s = math.sin(a)
-    if s < 1e-9:
-        if c > 0:
-            return 0.5 * v
-        # angle ~ pi: axis from the diagonal
-        ax = np.sqrt(np.maximum(0.0, (np.array([R[0, 0], R[1, 1], R[2, 2]]) + 1.0) / 2.0))
-        k = int(np.argmax(ax))
-        for i in range(3):
-            if i != k and R[k, i] + R[i, k] < 0:
-                ax[i] = -ax[i]
-        return a * ax / np.linalg.norm(ax)
-    return v * (a / (2.0 * s))
-
-
-@nb.njit(cache=True)
-def refine_kernel(q0, T_world_target_hand, hand_index, finger_pos, parent, T_parent_link, joint_kind,
-                  joint_index, axis, anchor, qmin, qmax, iters, damping, tol_pos, tol_rot):
-    """DLS refinement of q0 towards a hand-flange pose. Returns (q, pos_err [m], rot_err [rad])."""
-    q = q0.copy()
-    links = np.empty((parent.shape[0], 4, 4))
-    J = np.empty((6, 7))
-    e = np.empty(6)
-    pe, re = np.inf, np.inf
-    for it in range(iters + 1):
-        fk_links_kernel(q, finger_pos, parent, T_parent_link, joint_kind, joint_index, axis, anchor, links)
-        T = links[hand_index]
-        for r in range(3):
-            e[r] = T_world_target_hand[r, 3] - T[r, 3]
-        R_err = np.ascontiguousarray(T_world_target_hand[:3, :3]) @ np.ascontiguousarray(T[:3, :3].T)
-        w = _rot_log(R_err)
-        e[3:] = w
-        pe = math.sqrt(e[0] ** 2 + e[1] ** 2 + e[2] ** 2)
-        re = math.sqrt(w[0] ** 2 + w[1] ** 2 + w[2] ** 2)
-        if (pe < tol_pos and re < tol_rot) or it == iters:
-            break
-        jacobian_kernel(links, T[:3, 3].copy(), joint_kind, joint_index, axis, anchor, J)
-        A = J @ J.T + damping**2 * np.eye(6)
-        dq = J.T @ np.linalg.solve(A, e)
-        for j in range(7):
-            q[j] = min(qmax[j], max(qmin[j], q[j] + dq[j]))
-    return q, pe, re
-
-
 @lru_cache(maxsize=8)
 def _default_kin(config: RobotConfig) -> PandaKinematics:
     return PandaKinematics(config)
@@ -151,6 +102,9 @@ class PandaIK:
         self.T_base_world = inv_T(L[0])
         #: frankik's flange frame (panda_link8) in the hand frame: the 45 deg mount, from the model
         self.T_hand_link8 = inv_T(L[self.kin.hand_index]) @ L[i8]
+        self._kernel_args = tuple(self.kin.kernel_args())
+        #: frame -> hand flange, per frame name (the same inv_T as computed on each call)
+        self._T_frame_hand = {f: inv_T(self.kin.T_hand_frame(f)) for f in ("tcp", "cam", "hand")}
 
     def solve(self, T_world_frame: np.ndarray, frame: str, q_ref: np.ndarray,
               n_q7: int | None = None, validity=None, retry: bool = True, cache: dict | None = None) -> IKResult:
@@ -164,7 +118,10 @@ class PandaIK:
         q_ref = check_q(q_ref, "q_ref")
         config = self.config
         n_q7 = config.n_q7 if n_q7 is None else _whole(n_q7, "n_q7", 1, 1000)
-        T_world_hand = T_world_frame @ inv_T(self.kin.T_hand_frame(frame))
+        T_frame_hand = self._T_frame_hand.get(frame) if isinstance(frame, str) else None
+        if T_frame_hand is None:  # not a frame name: T_hand_frame says what is allowed
+            T_frame_hand = inv_T(self.kin.T_hand_frame(frame))
+        T_world_hand = T_world_frame @ T_frame_hand
         T_base_flange = self.T_base_world @ T_world_hand @ self.T_hand_link8
         S, pe, re, n_cand = self._sweep_cached(T_world_hand, T_base_flange, q_ref, n_q7, cache)
         if retry and S.shape[0] == 0 and config.n_q7_retry > n_q7:
@@ -188,24 +145,17 @@ class PandaIK:
 
     def _sweep(self, T_world_hand, T_base_flange, q_ref, n_q7):
         """Refined analytic solutions (k,7), pos_err (k,), rot_err (k,) over a q7 sweep, and
-        the number of analytic candidates within the limits."""
+        the number of analytic candidates within the limits. The candidates are refined in
+        one compiled call (`refine_batch_kernel`: the same arithmetic as `refine_kernel` on
+        each, tests/test_ik_batch.py)."""
         config = self.config
         q7s = np.concatenate([[q_ref[6]], np.linspace(Q_MIN[6], Q_MAX[6], n_q7 + 2)[1:-1]])
-        cands = []
-        for q7 in q7s:
-            S = self._frankik.ik_full(T_base_flange, q_ref, float(q7))
-            cands.extend(S[np.all(np.isfinite(S), axis=1)])
-        args = self.kin.kernel_args()
-        sols, pes, res = [], [], []
-        for q in cands:
-            q = np.clip(q, Q_MIN, Q_MAX)
-            qr, pe, re = refine_kernel(q, T_world_hand, self.kin.hand_index, *args, Q_MIN, Q_MAX,
-                                       config.refine_iters, config.damping, config.tol_pos, config.tol_rot)
-            if pe <= config.tol_pos and re <= config.tol_rot:
-                sols.append(qr)
-                pes.append(pe)
-                res.append(re)
-        return np.array(sols).reshape(-1, 7), np.array(pes), np.array(res), len(cands)
+        ik_full = self._frankik.ik_full
+        C = np.concatenate([ik_full(T_base_flange, q_ref, float(q7)) for q7 in q7s])
+        C = np.ascontiguousarray(C[np.isfinite(C).all(axis=1)], dtype=np.float64)
+        Q, pe, re, ok = refine_batch_kernel(C, T_world_hand, self.kin.hand_index, *self._kernel_args, Q_MIN, Q_MAX,
+                                            config.refine_iters, config.damping, config.tol_pos, config.tol_rot)
+        return Q[ok].reshape(-1, 7), pe[ok], re[ok], len(C)
 
 
 def _whole(value, name: str, low: int, high: int) -> int:
@@ -218,15 +168,8 @@ def _whole(value, name: str, low: int, high: int) -> int:
 def _ordered(S, pe, re, T, q_ref, tol, frame, failure) -> IKResult:
     order = np.argsort(np.linalg.norm(S - q_ref, axis=1), kind="stable")
     # greedy dedupe in that order: a solution is kept unless a kept one is within tol (max
-    # joint difference, symmetric); one pairwise matrix instead of a Python loop over pairs
-    near = np.max(np.abs(S[:, None, :] - S[None, :, :]), axis=2) <= tol if len(S) else np.zeros((0, 0), bool)
-    keep: list[int] = []
-    blocked = np.zeros(len(S), dtype=bool)
-    for i in order:
-        if not blocked[i]:
-            keep.append(int(i))
-            blocked |= near[i]
-    k = np.array(keep, np.int64)
+    # joint difference, symmetric)
+    k = dedupe_kernel(np.ascontiguousarray(S, dtype=np.float64).reshape(-1, 7), order.astype(np.int64), float(tol))
     return IKResult(S[k].reshape(-1, 7), pe[k], re[k], np.array(T)[k].reshape(-1, 4, 4), frame, failure)
 
 

@@ -346,16 +346,16 @@ class PandaKinematics:
     def T_world_hand_batch(self, Q: np.ndarray) -> np.ndarray:
         return self.T_world_frame_batch(Q, "hand")
 
-    def jacobian_batch(self, Q: np.ndarray, frame: str = "tcp") -> np.ndarray:
-        """(N,6,7) geometric Jacobians for Q (N,7)."""
-        links = self.fk_links_batch(Q)
+    def jacobian_batch(self, Q: np.ndarray, frame: str = "tcp", links: np.ndarray | None = None) -> np.ndarray:
+        """(N,6,7) geometric Jacobians for Q (N,7); links: `fk_links_batch(Q)` when the caller has it."""
+        links = self.fk_links_batch(Q) if links is None else links
         P = (links[:, self.hand_index] @ self.T_hand_frame(frame))[:, :3, 3]
         t = self.tree
         out = np.empty((links.shape[0], 6, 7))
         jacobian_batch_kernel(links, np.ascontiguousarray(P), t.joint_kind, t.joint_index, t.axis, t.anchor, out)
         return out
 
-    def manipulability_batch(self, Q: np.ndarray, frame: str = "tcp") -> np.ndarray:
-        """(N,) Yoshikawa manipulability for Q (N,7)."""
-        J = self.jacobian_batch(Q, frame)
+    def manipulability_batch(self, Q: np.ndarray, frame: str = "tcp", links: np.ndarray | None = None) -> np.ndarray:
+        """(N,) Yoshikawa manipulability for Q (N,7); links: `fk_links_batch(Q)` when the caller has it."""
+        J = self.jacobian_batch(Q, frame, links)
         return np.sqrt(np.maximum(np.linalg.det(J @ np.swapaxes(J, 1, 2)), 0.0))

@@ -47,12 +47,13 @@ class MetricsRecorder:
         Q = traj.q[keep]
         if len(Q) == 0:
             return
-        p = self.kin.T_world_tcp_batch(Q)[:, :3, 3]
+        links = self.kin.fk_links_batch(Q)  # once for the TCP path and the manipulability
+        p = (links[:, self.kin.hand_index] @ self.kin.T_hand_frame("tcp"))[:, :3, 3]  # = T_world_tcp_batch(Q)
         s = self._s_end + np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(p, axis=0), axis=1))])
         self._s_end = float(s[-1])
         self._t.append(t)
         self._s.append(s)
-        self._m.append(self.kin.manipulability_batch(Q))
+        self._m.append(self.kin.manipulability_batch(Q, links=links))
 
     def explored_fraction(self, t: float, occ) -> None:
         self.explored.append((float(t), float(occ.known_fraction(*self.surroundings))))
