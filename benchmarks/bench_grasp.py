@@ -11,7 +11,7 @@ and off, a few minutes. Figures: grasp.select_ms (selection = candidates + const
 the path to the pre-grasp, constraints on; median / p90 [ms]), grasp.only_success_rate (on
 that fixed set, constraints on), the side-by-side on/off success and collision counts, and
 the selected grasps that failed in physics by reason (grasp.exec_failures.*).
-The numbers in docs/grasping.md name their own --start/--count.
+The numbers in docs/grasping.md and docs/grasping_log.md name their own --start/--count.
 """
 from __future__ import annotations
 

@@ -1,7 +1,7 @@
 """Diagnosis: why a grasp-only transfer touched an obstacle the map called safe.
 
 Runs the grasp-only harness on one certified scene (seed 0) with the near-field scan of
---scan (default: the wider scan of docs/grasping.md), recording every depth frame it
+--scan (default: the wider scan of docs/grasping_log.md), recording every depth frame it
 integrates into its 1 cm map and the inputs and output of the selection. With GROUND TRUTH
 (read here only, through `sim.oracle` and the simulator's contacts):
 

@@ -12,7 +12,7 @@
 * grasp_scan_via: as grasp_scan, and a path to the pre-grasp via the home posture when no
   direct one plans (`GraspTrialConfig.plan_via_home`).
 * grasp_scan_more: as grasp_scan_via, with 150 candidates checked by IK instead of 60
-  (measured in docs/grasping.md, "End to end on the grasp map").
+  (measured in docs/grasping_log.md, "End to end on the grasp map").
 * grasp_scan_long: as grasp_scan_more, with up to 16 scan views and INSPECT views accepted
   from 0.5 % of the hypotheses' weight (`InspectConfig.min_fraction`).
 * find_only: no GRASP state (the trial ends at FOUND), as `compass run --find-only`.

@@ -72,10 +72,11 @@ def test_gse_tree_nodes_are_valid_and_reachable(setup):
         # grows a few nodes only (3 here since the start shell stays out of the space's box)
         assert tree.count > (5 if local_range < np.inf else 2)
         assert np.all(m.world.checker.are_valid(tree.q))
-        for k in range(tree.count):
+        for k in range(tree.count):  # each node's path is its parents' edges: every edge checked once
             path = tree.path_to(k)
             assert np.allclose(path[0], m.world.q) and np.allclose(path[-1], tree.q[k])
-            assert m.world.checker.path_valid(path, 0.005), k
+            assert k == 0 or np.array_equal(path[-2], tree.q[tree.parent[k]])
+            assert k == 0 or m.world.checker.edge_valid(tree.q[tree.parent[k]], tree.q[k], 0.005), k
     d = m.decide()
     assert d.path is not None and m.world.checker.path_valid(d.path, 0.005)
     assert d.stats["stage"] == "local" and d.stats["G"] >= GSEConfig().min_gain

@@ -127,3 +127,45 @@ def test_first_contacts_favour_the_top_band():
     assert top.mean() >= 0.5 and share < 0.4  # at least half from the band, which holds far fewer points
     with pytest.raises(CompassInputError, match="top_fraction"):
         CandidateConfig(top_fraction=1.5)
+
+
+def _reference_pairs(P, N, first, dirs, config):
+    """The contact-pair rule written with whole-array numpy, line by line as documented."""
+    out = np.full(len(first), -1)
+    for k, i in enumerate(first):
+        c = dirs[k]
+        d = P - P[i]
+        t = d @ c
+        on_line = np.linalg.norm(d - t[:, None] * c, axis=1) <= config.line_radius
+        if np.any(on_line & (t < -config.line_radius)):
+            continue  # p1 is not outermost on its closing line
+        far = on_line & (N @ c > 0.0) & (t >= config.min_width)
+        if not far.any():
+            continue
+        j = int(np.argmax(np.where(far, t, -np.inf)))
+        if not np.any(on_line & (t > t[j] + config.line_radius)):
+            out[k] = j
+    return out
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_contact_pairs_equal_the_whole_array_rule(seed):
+    """The compiled pass finds the same partner for every first contact and closing direction
+    as the rule evaluated over all points at once (boxes: partners on the opposite face;
+    noisy points: lines with points behind p1 and beyond the partner)."""
+    from compass_manip.grasp.candidates import closing_directions, contact_pairs, first_contacts
+
+    rng = np.random.default_rng(seed)
+    P, N = box_surface((0.02, 0.03, 0.05))
+    P = P + rng.normal(0.0, 0.002, P.shape)
+    cfg = CandidateConfig(n_contacts=150)
+    first = first_contacts(P, cfg, rng)
+    first, dirs = closing_directions(N, first, cfg, rng)
+    j, width = contact_pairs(P, N, first, cfg, dirs)
+    ref = _reference_pairs(P, N, first, dirs, cfg)
+    assert np.array_equal(j, ref)
+    assert 0.2 * len(first) < np.count_nonzero(j >= 0) < len(first)  # both outcomes occur
+    ok = j >= 0
+    assert np.allclose(width[ok], np.linalg.norm(P[j[ok]] - P[first[ok]], axis=1)) and np.all(width[~ok] == 0)
+    j0, _ = contact_pairs(P, N, first[:20], cfg)  # default directions: the inward normals
+    assert np.array_equal(j0, _reference_pairs(P, N, first[:20], -N[first[:20]], cfg))

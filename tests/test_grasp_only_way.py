@@ -1,7 +1,7 @@
 """The grasp-only harness's robot's-way mask (the space the arm moved through, marked safe)
 never makes a voxel seen occupied safe: in the wider near-field scan's (1, 2) contact every
 shelf voxel the camera housing met lay in the way mask, and the occupied ones were made safe
-by it (docs/grasping.md, "Free space the grasp can trust"). As in the trial's grasp stage."""
+by it (docs/grasping_log.md, "Free space the grasp can trust"). As in the trial's grasp stage."""
 import pytest
 
 from compass_manip.sim import grasp_only

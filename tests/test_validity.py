@@ -327,3 +327,26 @@ def test_adaptive_edge_check_equals_checking_every_state(sm, prims, kind):
             assert vc.edge_valid(q0, q1, res, adaptive=True) == dense
             verdicts.append(dense)
     assert 0.1 < np.mean(verdicts) < 0.95  # both verdicts occur
+
+
+def test_checkers_of_one_sphere_model_share_its_packing_and_equal_a_fresh_one(sm, prims):
+    """The packed spheres and motion bounds are computed once per sphere model and
+    check_self; they equal a fresh packing, and a checker using them gives the same
+    verdicts as one built on a copy of the model (packed anew)."""
+    import dataclasses
+
+    from compass_manip.motion.edge_bounds import motion_bounds
+    from compass_manip.motion.validity import _pack_robot
+
+    a, b = ValidityChecker(sm, obstacles=prims), ValidityChecker(sm, config=ValidityConfig(margin=0.01))
+    assert a._p.robot is b._p.robot and a._bounds is b._bounds
+    assert ValidityChecker(sm, config=ValidityConfig(check_self=False))._p.robot is not a._p.robot
+    fresh = _pack_robot(sm, True)
+    for x, y in zip(a._p.robot, fresh):
+        np.testing.assert_array_equal(x, y)
+    for x, y in zip(a._bounds, motion_bounds(sm, fresh)):
+        np.testing.assert_array_equal(x, y)
+    other = ValidityChecker(dataclasses.replace(sm), obstacles=prims)
+    assert other._p.robot is not a._p.robot
+    Q = np.random.default_rng(3).uniform(Q_MIN, Q_MAX, (300, 7))
+    np.testing.assert_array_equal(a.are_valid(Q), other.are_valid(Q))

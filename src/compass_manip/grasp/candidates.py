@@ -14,6 +14,7 @@ both ways round (the fingers are symmetric; the wrist camera on one side of the 
 from __future__ import annotations
 
 import inspect
+import math
 from dataclasses import dataclass
 from typing import Protocol
 
@@ -167,29 +168,48 @@ class AntipodalProposer:
 def contact_pairs(points: np.ndarray, normals: np.ndarray, first: np.ndarray, config: CandidateConfig,
                   directions: np.ndarray | None = None):
     """For first-contact indices and closing directions (default: the inward normals), the
-    partner index (-1 where none) and width [m]."""
-    P, N = points, normals
-    out_j = np.full(len(first), -1, dtype=np.int64)
-    dirs = -N[first] if directions is None else directions
-    for k, i in enumerate(first):
-        c = dirs[k]  # closing direction into the object
-        d = P - P[i]
-        t = d @ c
-        perp = np.linalg.norm(d - t[:, None] * c, axis=1)
-        on_line = perp <= config.line_radius
-        if np.any(on_line & (t < -config.line_radius)):
-            continue  # target surface outside p1 on the closing line: p1 is not outermost
-        far = on_line & (N @ c > 0.0) & (t >= config.min_width)
-        if not far.any():
-            continue
-        j = int(np.argmax(np.where(far, t, -np.inf)))
-        if np.any(on_line & (t > t[j] + config.line_radius)):
-            continue
-        out_j[k] = j
+    partner index (-1 where none) and width [m]: along each closing line c through p1 (the
+    points within `line_radius` of it), p1 must be outermost (no point more than
+    line_radius behind it) and the partner is the farthest point at least `min_width` along
+    c whose normal faces along c, with no point more than line_radius beyond it. One numba
+    pass over the points per first contact."""
+    P = np.ascontiguousarray(points, dtype=np.float64)
+    N = np.ascontiguousarray(normals, dtype=np.float64)
+    first = np.ascontiguousarray(first, dtype=np.int64)
+    dirs = -N[first] if directions is None else np.asarray(directions, dtype=np.float64)
+    out_j = _contact_pairs(P, N, first, np.ascontiguousarray(dirs), float(config.line_radius),
+                           float(config.min_width))
     ok = out_j >= 0
     width = np.zeros(len(first))
     width[ok] = np.linalg.norm(P[out_j[ok]] - P[first[ok]], axis=1)
     return out_j, width
+
+
+@njit(cache=True, parallel=True)
+def _contact_pairs(P, N, first, dirs, line_radius, min_width):
+    out = np.full(first.shape[0], -1, np.int64)
+    for k in prange(first.shape[0]):
+        i = first[k]
+        c0, c1, c2 = dirs[k, 0], dirs[k, 1], dirs[k, 2]
+        best, best_t, behind = -1, -np.inf, False
+        t_max_line = -np.inf  # the largest t of a point on the line
+        for n in range(P.shape[0]):
+            d0, d1, d2 = P[n, 0] - P[i, 0], P[n, 1] - P[i, 1], P[n, 2] - P[i, 2]
+            t = d0 * c0 + d1 * c1 + d2 * c2
+            e0, e1, e2 = d0 - t * c0, d1 - t * c1, d2 - t * c2
+            if math.sqrt(e0 * e0 + e1 * e1 + e2 * e2) > line_radius:
+                continue
+            if t < -line_radius:
+                behind = True
+                break
+            if t > t_max_line:
+                t_max_line = t
+            if t >= min_width and N[n, 0] * c0 + N[n, 1] * c1 + N[n, 2] * c2 > 0.0 and t > best_t:
+                best, best_t = n, t
+        if behind or best < 0 or t_max_line > best_t + line_radius:
+            continue
+        out[k] = best
+    return out
 
 
 def closing_directions(normals: np.ndarray, first: np.ndarray, config: CandidateConfig,

@@ -67,7 +67,7 @@ class MapConfig:
     the ray's line crosses, also one a board fills in part). sticky_hits k >= 1: a voxel hit
     in k scans stays occupied, misses no longer lower it (a static scene; 0: OctoMap's rule,
     where a few misses of rays through a voxel's empty part flip a once-hit voxel to free).
-    With both off the labels are OctoMap's (measured in docs/grasping.md, "Free space the grasp can trust").
+    With both off the labels are OctoMap's (measured in docs/grasping_log.md, "Free space the grasp can trust").
     """
 
     box_min: tuple[float, float, float] = (-0.6, -0.8, -0.05)

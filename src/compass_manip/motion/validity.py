@@ -12,6 +12,7 @@ tested for self-collision, never against the environment it stands on.
 from __future__ import annotations
 
 import copy
+import weakref
 import math
 from dataclasses import dataclass, field, replace
 
@@ -110,6 +111,21 @@ def _pack_robot(sm: SphereModel, check_self: bool) -> RobotSpheres:
                         env_link, np.ascontiguousarray(lp), lp_run, run_u, run_start, partner, *clusters)
 
 
+#: per sphere model (weakly held) and check_self: its packed spheres and motion bounds
+_PACKED: "weakref.WeakKeyDictionary[SphereModel, dict]" = weakref.WeakKeyDictionary()
+
+
+def _packed_robot(sm: SphereModel, check_self: bool) -> tuple[RobotSpheres, tuple]:
+    """(`_pack_robot(sm, check_self)`, `motion_bounds` of it), computed once per sphere model
+    (a model's arrays are never changed after it is built): a grasp selection or a map update
+    builds several checkers of one robot, and packing costs ~15-20 ms each time."""
+    per = _PACKED.setdefault(sm, {})
+    if check_self not in per:
+        robot = _pack_robot(sm, check_self)
+        per[check_self] = (robot, motion_bounds(sm, robot))
+    return per[check_self]
+
+
 def _bounding_sphere(c: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, float]:
     """Centre (AABB centre) and radius of a sphere enclosing spheres (c, r)."""
     lo, hi = (c - r[:, None]).min(0), (c + r[:, None]).max(0)
@@ -165,15 +181,15 @@ class ValidityChecker:
         else:
             g = GridData(grid.dist, grid.origin, grid.resolution, True, config.outside_grid_free)
         half_diag = 0.5 * math.sqrt(3.0) * grid.resolution if (grid is not None and config.voxel_extent) else 0.0
+        robot, self._bounds = _packed_robot(sphere_model, config.check_self)
         self._p = _Packed(
             kin=sphere_model.kinematics.kernel_args(),
-            robot=_pack_robot(sphere_model, config.check_self),
+            robot=robot,
             grid=g,
             prims=self.obstacles.arrays(),
             limits=(Q_MIN.copy(), Q_MAX.copy()),
             params=np.array([config.margin, config.self_margin, half_diag, 0.0]),
         )
-        self._bounds = motion_bounds(sphere_model, self._p.robot)
 
     def with_grid(self, grid: DistanceGrid) -> "ValidityChecker":
         """This checker on another distance grid (a map update), reusing the packed robot

@@ -4,7 +4,7 @@ be assumed free.
 
 The exploration's NFA (`exploration.nfa`) moves only the wrist; the space the elbow (links
 3-4) needs on its way into the cabinet lies below and beside the camera at home, and a wrist
-scan from home does not see it (diagnosed in docs/grasping.md: the certified grasps' arm
+scan from home does not see it (diagnosed in docs/grasping_log.md: the certified grasps' arm
 configurations and transfers were blocked by unknown voxels 0.2-0.35 m from the base, free
 in truth). Here the candidates also turn joint 1 and bend joints 2 and 4, the gain is the
 exploration's own (`mapping.infogain.info_gain_batch` on the unknown voxels of the box), and
@@ -54,7 +54,7 @@ class NearFieldScanConfig:
             raise CompassInputError(f"box_max {self.box_max} must exceed box_min {self.box_min} [m]")
 
 
-#: The wider scan (docs/grasping.md): joint 1 within +-2.2 rad, beside and behind the base.
+#: The wider scan (docs/grasping_log.md): joint 1 within +-2.2 rad, beside and behind the base.
 WIDE_SCAN = NearFieldScanConfig(n_candidates=240, max_views=32, yaw_range=2.2, box_min=(-0.5, -0.7, 0.0),
                                 box_max=(0.75, 0.7, 1.2))
 

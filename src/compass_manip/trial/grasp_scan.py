@@ -3,7 +3,7 @@ the arm needs on its way into the confined space, so the grasp assumes none of i
 
 The grasp's selection takes unknown space as unsafe. The arm configurations of a grasp deep in
 a cabinet put links 2-4 0.2-0.4 m from the base, where a wrist camera that looked into the
-cabinet never looked (diagnosed in docs/grasping.md on the grasp-only harness, whose own
+cabinet never looked (diagnosed in docs/grasping_log.md on the grasp-only harness, whose own
 near-field scan, `sim.near_field`, fixed it there). The trial's grasp stage assumed that
 space free instead (`GraspTrialConfig.near_body_free`). `NearFieldScanner` is the trial's
 version of the harness's scan with nothing from the simulator: the candidates are the
