@@ -15,15 +15,21 @@
   (measured in docs/grasping.md, "End to end on the grasp map").
 * grasp_scan_long: as grasp_scan_more, with up to 16 scan views and INSPECT views accepted
   from 0.5 % of the hypotheses' weight (`InspectConfig.min_fraction`).
+* grasp_inspect_halo: the grasp map with its fine map, 20 INSPECT views and the near-body
+  assumption 8 cm from anything seen occupied.
+* grasp_look: as grasp_inspect_halo, with look before moving (`GraspTrialConfig.verify`).
 * find_only: no GRASP state (the trial ends at FOUND), as `compass run --find-only`.
 """
 from __future__ import annotations
+
+from dataclasses import replace
 
 from compass_manip.grasp.select import GraspSelectConfig
 from compass_manip.trial.config import GraspTrialConfig, TrialConfig
 from compass_manip.trial.grasp_scan import TrialScanConfig
 from compass_manip.trial.inspect import InspectConfig
 from compass_manip.trial.runner import TrialSpec, run_trial
+from compass_manip.trial.verify import VerifyConfig
 
 
 def _run(spec, config: TrialConfig) -> tuple[dict, dict]:
@@ -106,3 +112,14 @@ def grasp_inspect_halo_config() -> TrialConfig:
 
 def grasp_inspect_halo(spec) -> tuple[dict, dict]:
     return _run(spec, grasp_inspect_halo_config())
+
+
+def grasp_look_config() -> TrialConfig:
+    """grasp_inspect_halo, and look before moving (`GraspTrialConfig.verify`, `trial.verify`):
+    the near-body assumption only chooses; the manoeuvre runs once its swept voxels are seen free."""
+    return replace(grasp_inspect_halo_config(), grasp=replace(grasp_inspect_halo_config().grasp,
+                                                              verify=VerifyConfig()))
+
+
+def grasp_look(spec) -> tuple[dict, dict]:
+    return _run(spec, grasp_look_config())

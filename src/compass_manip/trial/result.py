@@ -23,6 +23,9 @@ class TrialFailure(enum.Enum):
     GRASP_MISSED = "found, but the fingers closed without holding the target"
     GRASP_SLIP = "found, but the target did not rise with the hand"
     GRASP_DROP = "found, but the target was lost during the hold"
+    #: look before moving (`GraspTrialConfig.verify`): the chosen manoeuvre still sweeps unknown
+    #: voxels when the look budget is spent (or no view sees them), so it is not executed
+    GRASP_UNVERIFIED = "found, but the grasp's swept space could not be seen free in the look budget"
 
 
 @dataclass(frozen=True)
