@@ -18,6 +18,8 @@
 * grasp_inspect_halo: the grasp map with its fine map, 20 INSPECT views and the near-body
   assumption 8 cm from anything seen occupied.
 * grasp_look: as grasp_inspect_halo, with look before moving (`GraspTrialConfig.verify`).
+* grasp_look_rule: as grasp_look, the method's own rule for unknown space trusted at execution
+  (`VerifyConfig.trust_method_rule`).
 * find_only: no GRASP state (the trial ends at FOUND), as `compass run --find-only`.
 """
 from __future__ import annotations
@@ -123,3 +125,14 @@ def grasp_look_config() -> TrialConfig:
 
 def grasp_look(spec) -> tuple[dict, dict]:
     return _run(spec, grasp_look_config())
+
+
+def grasp_look_rule_config() -> TrialConfig:
+    """grasp_look, with the method's own rule for unknown space trusted at execution as in the
+    exploration (`VerifyConfig.trust_method_rule`): only the rest is looked at."""
+    return replace(grasp_inspect_halo_config(), grasp=replace(grasp_inspect_halo_config().grasp,
+                                                              verify=VerifyConfig(trust_method_rule=True)))
+
+
+def grasp_look_rule(spec) -> tuple[dict, dict]:
+    return _run(spec, grasp_look_rule_config())

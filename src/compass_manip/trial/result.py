@@ -39,7 +39,8 @@ class TrialResult:
     held. found: the target was found (a true detection within the limit); gpq: the selected
     grasp's Grasp Pose Quality (None when no grasp was selected or find-only); grasp_s [s]
     simulated time of the GRASP state (None when not entered); lift_m [m] the target's rise
-    after the hold (None when no grasp was executed)."""
+    after the hold (None when no grasp was executed); grasp_looks: look views the GRASP state
+    executed before moving (`GraspTrialConfig.verify`; None when not entered)."""
 
     method: str
     level: int
@@ -62,6 +63,7 @@ class TrialResult:
     found: bool = False
     grasp_s: float | None = None
     lift_m: float | None = None
+    grasp_looks: int | None = None
 
     @property
     def success(self) -> bool:
@@ -80,5 +82,5 @@ class TrialResult:
             "decisions": self.decisions, "planning_ms_median": r(self.planning_ms_median, 2),
             "planning_ms_p90": r(self.planning_ms_p90, 2), "wall_s": r(self.wall_s, 3),
             "true_detection": self.true_detection, "found": self.found, "grasp_s": r(self.grasp_s, 3),
-            "lift_m": r(self.lift_m),
+            "lift_m": r(self.lift_m), "grasp_looks": self.grasp_looks,
         }

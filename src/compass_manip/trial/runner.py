@@ -189,5 +189,6 @@ def run_trial_full(spec: TrialSpec, config: TrialConfig | None = None, progress=
         explored_curve=tuple(metrics.explored), decisions=metrics.decisions, planning_ms_median=med,
         planning_ms_p90=p90, wall_s=time.perf_counter() - wall0, true_detection=true_det,
         found=found, grasp_s=None if g is None else g.duration_s, lift_m=None if g is None else g.lift_m,
+        grasp_looks=None if g is None else g.n_looks,
     )
     return TrialRun(result, outcome, scene, metrics)
