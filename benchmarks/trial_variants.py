@@ -18,8 +18,8 @@
 * grasp_inspect_halo: the grasp map with its fine map, 20 INSPECT views and the near-body
   assumption 8 cm from anything seen occupied.
 * grasp_look: as grasp_inspect_halo, with look before moving (`GraspTrialConfig.verify`).
-* grasp_look_rule: as grasp_look, the method's own rule for unknown space trusted at execution
-  (`VerifyConfig.trust_method_rule`).
+* grasp_look_outside: as grasp_look, unknown space outside the confined space's box (down to
+  the floor) and beyond the obstacle halo trusted at execution (`VerifyConfig.trust_outside_space`).
 * find_only: no GRASP state (the trial ends at FOUND), as `compass run --find-only`.
 """
 from __future__ import annotations
@@ -127,12 +127,13 @@ def grasp_look(spec) -> tuple[dict, dict]:
     return _run(spec, grasp_look_config())
 
 
-def grasp_look_rule_config() -> TrialConfig:
-    """grasp_look, with the method's own rule for unknown space trusted at execution as in the
-    exploration (`VerifyConfig.trust_method_rule`): only the rest is looked at."""
+def grasp_look_outside_config() -> TrialConfig:
+    """grasp_look, with unknown space outside the confined space's box (down to the floor) and
+    beyond the obstacle halo trusted at execution, as the baselines move
+    (`VerifyConfig.trust_outside_space`): only the rest is looked at."""
     return replace(grasp_inspect_halo_config(), grasp=replace(grasp_inspect_halo_config().grasp,
-                                                              verify=VerifyConfig(trust_method_rule=True)))
+                                                              verify=VerifyConfig(trust_outside_space=True)))
 
 
-def grasp_look_rule(spec) -> tuple[dict, dict]:
-    return _run(spec, grasp_look_rule_config())
+def grasp_look_outside(spec) -> tuple[dict, dict]:
+    return _run(spec, grasp_look_outside_config())

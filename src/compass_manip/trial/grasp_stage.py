@@ -183,9 +183,9 @@ def run_grasp_stage(world, occupancy, detection, task, q_current: np.ndarray, mo
         while True:  # the grasp's own motions first, then a transfer through space seen free
             own = own_space(occupancy, spheres, moved, config) | base_volume_mask(spheres, occupancy)
             mark_configs(own, occupancy, spheres, q[None], config.select.robot_clearance)
-            if verify.trust_method_rule and method_rules is not None:  # what every exploration motion trusts
-                own |= method_safe_voxels(occupancy, own, assumed_free_mask(occupancy, task, method_rules),
-                                          method_rules.obstacle_halo)
+            if verify.trust_outside_space and method_rules is not None:  # the baselines' rule, not Omega_safe's
+                rule = replace(method_rules, near_base_box=None)
+                own |= method_safe_voxels(occupancy, own, assumed_free_mask(occupancy, task, rule), rule.obstacle_halo)
             target = model()
             unknown = swept_unknown(occupancy, spheres, Q_grasp, verify.inflate, own, target, config.select.clearance)
             blocked = swept_occupied(occupancy, spheres, Q_grasp, target, config.select.clearance)

@@ -50,13 +50,14 @@ class VerifyConfig:
     min_seen voxels a view must see; n_goals best views handed to the planner; strict_first:
     each round first selects with only the robot's own space taken as free besides the space
     seen free (a transfer through known-free space), and optimistically only when that fails;
-    trust_method_rule: the unknown space the method's own validity checker takes as free
-    (outside the confined space's box grown down to the floor, beyond its obstacle halo,
-    `exploration.world_model.assumed_free_mask`) needs no look either - the rule every motion
-    of the exploration executes on, weaker than "seen free" (off by default)."""
+    trust_outside_space: the unknown space outside the confined space's box (grown by its wall
+    and the method's space_margin, down to the floor) and beyond the method's obstacle halo from
+    anything seen needs no look either: the rule the exploration baselines move on
+    (`exploration.world_model.assumed_free_mask` without `near_base_box`; COMPASS itself keeps
+    Omega_safe around the base unsafe until seen). Weaker than "seen free"; off by default."""
 
     strict_first: bool = True
-    trust_method_rule: bool = False
+    trust_outside_space: bool = False
     max_views: int = 6
     max_rounds: int = 4
     inflate: float = 0.009
