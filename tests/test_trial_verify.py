@@ -100,11 +100,11 @@ def stage(monkeypatch):
     det = SimpleNamespace(points_world=np.zeros((20, 3)) + 0.5, T_world_cam=np.eye(4))
     task = SimpleNamespace(target=None)
 
-    def run(config, look):
+    def run(config, look, task=task, rules=None):
         looker = lambda q, occ_, centres, way=None: SimpleNamespace(path=np.stack([q, q]), planned=True, gain=5,
                                                                      n_valid=1, plan_time_s=0.0)
         return grasp_stage.run_grasp_stage(world, occ, det, task, Q_HOME, [], config, np.random.default_rng(0), 0.1,
-                                           looker=looker, look=look)
+                                           looker=looker, look=look, method_rules=rules)
     return SimpleNamespace(run=run, occ=occ, ran=ran)
 
 
@@ -129,6 +129,24 @@ def test_the_stage_executes_once_a_look_has_seen_the_swept_space_free(stage):
     r = stage.run(GraspTrialConfig(near_body_free=False, verify=VerifyConfig(max_views=3)), look)
     assert r.failure is None and len(stage.ran) == 1 and r.n_looks == 1 and calls == [True, False]
     assert r.duration_s == pytest.approx(0.1 + 0.1 + 1.0)  # the (strict) selection, the view's plan, the grasp
+
+
+def _task(lo, hi):
+    space = SimpleNamespace(interior_min=lo, interior_max=hi, wall_thickness=0.02, outward=(-1.0, 0.0, 0.0))
+    return SimpleNamespace(target=None, space=space, floor_z=-0.5, robot_base_pos=(0.0, 0.0, 0.0))
+
+
+def test_trusting_the_space_outside_the_confined_space_needs_no_look_there_only(stage):
+    from compass_manip.exploration.world_model import WorldModelConfig
+    config = GraspTrialConfig(near_body_free=False, verify=VerifyConfig(max_views=0, trust_outside_space=True))
+    rules = WorldModelConfig(near_base_box=((-0.5, -0.5, 0.0), (0.5, 0.5, 1.0)))  # COMPASS's box: ignored here
+    far = stage.run(config, lambda p, count=True: "none", _task((2.0, 2.0, 0.3), (2.5, 2.5, 0.8)), rules)
+    assert far.failure is None and len(stage.ran) == 1  # the whole arm is outside the confined space
+    around = stage.run(config, lambda p, count=True: "none", _task((-1.0, -1.0, 0.0), (1.0, 1.0, 1.2)), rules)
+    assert around.failure is TrialFailure.GRASP_UNVERIFIED and len(stage.ran) == 1  # inside it: unknown is unknown
+    off = stage.run(GraspTrialConfig(near_body_free=False, verify=VerifyConfig(max_views=0)),
+                    lambda p, count=True: "none", _task((2.0, 2.0, 0.3), (2.5, 2.5, 0.8)), rules)
+    assert off.failure is TrialFailure.GRASP_UNVERIFIED
 
 
 def test_the_stage_needs_the_look_callbacks_with_verify():
