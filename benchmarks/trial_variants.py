@@ -20,6 +20,7 @@
 * grasp_look: as grasp_inspect_halo, with look before moving (`GraspTrialConfig.verify`).
 * grasp_look_outside: as grasp_look, unknown space outside the confined space's box (down to
   the floor) and beyond the obstacle halo trusted at execution (`VerifyConfig.trust_outside_space`).
+* grasp_look_outside_long: as grasp_look_outside with up to 12 look views.
 * find_only: no GRASP state (the trial ends at FOUND), as `compass run --find-only`.
 """
 from __future__ import annotations
@@ -137,3 +138,13 @@ def grasp_look_outside_config() -> TrialConfig:
 
 def grasp_look_outside(spec) -> tuple[dict, dict]:
     return _run(spec, grasp_look_outside_config())
+
+
+def grasp_look_outside_long_config() -> TrialConfig:
+    """grasp_look_outside with up to 12 look views (`VerifyConfig.max_views`, default 6)."""
+    return replace(grasp_inspect_halo_config(), grasp=replace(
+        grasp_inspect_halo_config().grasp, verify=VerifyConfig(trust_outside_space=True, max_views=12)))
+
+
+def grasp_look_outside_long(spec) -> tuple[dict, dict]:
+    return _run(spec, grasp_look_outside_long_config())
