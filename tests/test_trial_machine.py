@@ -77,5 +77,5 @@ def test_config_is_json_and_failures_are_named():
     assert {f.name for f in TrialFailure} == {"NO_REACHABLE_VIEW", "PLANNING_FAILED", "TIME_LIMIT",
                                               "TARGET_NOT_FOUND", "FALSE_DETECTION", "COLLISION",
                                               "GRASP_NO_CANDIDATE", "GRASP_NO_IK", "GRASP_NO_PATH", "GRASP_COLLISION",
-                                              "GRASP_MISSED", "GRASP_SLIP", "GRASP_DROP"}
+                                              "GRASP_MISSED", "GRASP_SLIP", "GRASP_DROP", "GRASP_UNVERIFIED"}
     assert d["grasp"]["enabled"] is True and d["grasp"]["select"]["constrained"] is True

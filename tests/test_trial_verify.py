@@ -80,6 +80,12 @@ def test_verify_config_rejects_bad_values():
         VerifyConfig(view_distance=(0.6, 0.3))
     with pytest.raises(CompassInputError, match="verify"):
         GraspTrialConfig(verify=3)
+    import json
+
+    from compass_manip.trial.config import TrialConfig
+    d = TrialConfig(grasp=GraspTrialConfig(verify=VerifyConfig(max_views=12))).to_dict()
+    assert json.loads(json.dumps(d)) == d and d["grasp"]["verify"]["max_views"] == 12
+    assert TrialConfig().to_dict()["grasp"]["verify"] is None  # off by default
 
 
 @pytest.fixture
