@@ -97,7 +97,9 @@ class GraspTrialConfig:
     (optimistically, with the assumptions above) is executed only when every voxel its
     transfer, approach and lift sweep is seen free or the robot's own; until then look views
     of those voxels are executed and the grasp re-selected (`GRASP_UNVERIFIED` when the budget
-    is spent)."""
+    is spent). Measured (docs/grasping.md, "Look before moving"): 0/10 with 0 collision trials on
+    seed 101 L1/L3 seen-free only; with `VerifyConfig.trust_outside_space` 2/10 there but 2
+    collision trials on seed 2026: off by default."""
 
     enabled: bool = True
     target: TargetConfig = field(default_factory=TargetConfig)

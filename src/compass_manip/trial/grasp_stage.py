@@ -10,7 +10,10 @@ approach through the cabinet's face frame that an INSPECT motion had passed with
 selection is executed in the World's physics (`sim.grasp_exec`). Nothing here reads ground
 truth: the physics decides whether the lift worked, as the real robot's sensors would.
 The simulated clock advances by the selection (the trial's planning charge, or the measured
-compute time) plus the simulated duration of the grasp's motions.
+compute time) plus the simulated duration of the grasp's motions. With `verify` (look before
+moving, `trial.verify`) a selection is executed only when every voxel its manoeuvre sweeps is
+seen free or the robot's own; the stage first executes look views of the rest through the
+machine (their motions advance the machine's clock) and re-checks or re-selects.
 """
 from __future__ import annotations
 
