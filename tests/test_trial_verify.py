@@ -173,5 +173,6 @@ def test_same_seed_gives_an_identical_trial_with_look_before_moving():
                                                 verify=VerifyConfig(max_views=2)))
     a = run_trial(TrialSpec("compass", 1, 0, 0, 101), config).to_dict()
     b = run_trial(TrialSpec("compass", 1, 0, 0, 101), replace(config)).to_dict()
-    a.pop("wall_s"), b.pop("wall_s")
-    assert a == b
+    for k in ("wall_s", "planning_ms_median", "planning_ms_p90"):  # measured compute times, not the trial
+        a.pop(k), b.pop(k)
+    assert a == b and a["grasp_looks"] is not None  # GRASP was entered with the look loop
