@@ -40,6 +40,7 @@ def main() -> int:
             print(json.dumps({
                 "level": level, "scene": scene, "success": r.success, "failure": None if r.failure is None
                 else r.failure.name, "found": r.found, "collisions": r.collisions, "n_inspected": run.outcome.n_inspected,
+                "n_looks": None if g is None else g.n_looks, "look_log": None if g is None else list(g.look_log),
                 "t_end": round(run.outcome.t_end, 1), "selection_failure": None if sel is None or sel.failure is None
                 else sel.failure.name, "rejections": None if sel is None else {k.name: v for k, v in sel.rejections.items()},
                 "select_s": None if sel is None else round(sel.time_s, 2),

@@ -15,15 +15,24 @@
   (measured in docs/grasping_log.md, "End to end on the grasp map").
 * grasp_scan_long: as grasp_scan_more, with up to 16 scan views and INSPECT views accepted
   from 0.5 % of the hypotheses' weight (`InspectConfig.min_fraction`).
+* grasp_inspect_halo: the grasp map with its fine map, 20 INSPECT views and the near-body
+  assumption 8 cm from anything seen occupied.
+* grasp_look: as grasp_inspect_halo, with look before moving (`GraspTrialConfig.verify`).
+* grasp_look_outside: as grasp_look, unknown space outside the confined space's box (down to
+  the floor) and beyond the obstacle halo trusted at execution (`VerifyConfig.trust_outside_space`).
+* grasp_look_outside_long: as grasp_look_outside with up to 12 look views.
 * find_only: no GRASP state (the trial ends at FOUND), as `compass run --find-only`.
 """
 from __future__ import annotations
+
+from dataclasses import replace
 
 from compass_manip.grasp.select import GraspSelectConfig
 from compass_manip.trial.config import GraspTrialConfig, TrialConfig
 from compass_manip.trial.grasp_scan import TrialScanConfig
 from compass_manip.trial.inspect import InspectConfig
 from compass_manip.trial.runner import TrialSpec, run_trial
+from compass_manip.trial.verify import VerifyConfig
 
 
 def _run(spec, config: TrialConfig) -> tuple[dict, dict]:
@@ -106,3 +115,36 @@ def grasp_inspect_halo_config() -> TrialConfig:
 
 def grasp_inspect_halo(spec) -> tuple[dict, dict]:
     return _run(spec, grasp_inspect_halo_config())
+
+
+def grasp_look_config() -> TrialConfig:
+    """grasp_inspect_halo, and look before moving (`GraspTrialConfig.verify`, `trial.verify`):
+    the near-body assumption only chooses; the manoeuvre runs once its swept voxels are seen free."""
+    return replace(grasp_inspect_halo_config(), grasp=replace(grasp_inspect_halo_config().grasp,
+                                                              verify=VerifyConfig()))
+
+
+def grasp_look(spec) -> tuple[dict, dict]:
+    return _run(spec, grasp_look_config())
+
+
+def grasp_look_outside_config() -> TrialConfig:
+    """grasp_look, with unknown space outside the confined space's box (down to the floor) and
+    beyond the obstacle halo trusted at execution, as the baselines move
+    (`VerifyConfig.trust_outside_space`): only the rest is looked at."""
+    return replace(grasp_inspect_halo_config(), grasp=replace(grasp_inspect_halo_config().grasp,
+                                                              verify=VerifyConfig(trust_outside_space=True)))
+
+
+def grasp_look_outside(spec) -> tuple[dict, dict]:
+    return _run(spec, grasp_look_outside_config())
+
+
+def grasp_look_outside_long_config() -> TrialConfig:
+    """grasp_look_outside with up to 12 look views (`VerifyConfig.max_views`, default 6)."""
+    return replace(grasp_inspect_halo_config(), grasp=replace(
+        grasp_inspect_halo_config().grasp, verify=VerifyConfig(trust_outside_space=True, max_views=12)))
+
+
+def grasp_look_outside_long(spec) -> tuple[dict, dict]:
+    return _run(spec, grasp_look_outside_long_config())

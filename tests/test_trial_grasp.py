@@ -50,7 +50,7 @@ def _machine(grasp):
 def test_machine_grasps_after_found_and_charges_its_time(failure):
     calls = []
 
-    def grasp(q, detection, moved):
+    def grasp(q, detection, moved, look=None):
         calls.append((q, detection, moved))
         return GraspStageResult(failure, 7.25, None, None, q, 2 if failure else 0)
 

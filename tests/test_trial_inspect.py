@@ -86,7 +86,7 @@ def test_machine_inspects_between_found_and_grasp_and_counts_the_plans():
         order.append("inspect")
         return InspectPlan(None, 0, 0, 0.3)
 
-    def grasp(q, detection, moved):
+    def grasp(q, detection, moved, look=None):
         order.append("grasp")
         return GraspStageResult(None, 2.0, None, None, q, 0)
 
@@ -106,7 +106,7 @@ def test_machine_charges_but_does_not_count_an_inspect_step_that_plans_nothing()
         calls.append(q)
         return InspectPlan(None, 0, 0, 0.3, planned=False)
 
-    def grasp(q, detection, moved):
+    def grasp(q, detection, moved, look=None):
         return GraspStageResult(None, 2.0, None, None, q, 0)
 
     out = TrialMachine(world, method, buffer, metrics, TrialConfig(), grasp=grasp, inspect=inspect, n_inspect=3).run()

@@ -15,7 +15,7 @@ from compass_manip.trial.runner import TrialSpec, check_spec, run_trial_full, tr
 SPEC = TrialSpec("compass", level=1, scene=1, trial=0, seed=0)
 KEYS = {"method", "level", "scene", "trial", "seed", "success", "failure", "tft_s", "pft_m", "mpsr", "am", "gpq",
         "collisions", "explored_curve", "decisions", "planning_ms_median", "planning_ms_p90", "wall_s",
-        "true_detection", "found", "grasp_s", "lift_m"}
+        "true_detection", "found", "grasp_s", "lift_m", "grasp_looks"}
 FIND_ONLY = GraspTrialConfig(enabled=False)
 
 
@@ -77,5 +77,5 @@ def test_config_is_json_and_failures_are_named():
     assert {f.name for f in TrialFailure} == {"NO_REACHABLE_VIEW", "PLANNING_FAILED", "TIME_LIMIT",
                                               "TARGET_NOT_FOUND", "FALSE_DETECTION", "COLLISION",
                                               "GRASP_NO_CANDIDATE", "GRASP_NO_IK", "GRASP_NO_PATH", "GRASP_COLLISION",
-                                              "GRASP_MISSED", "GRASP_SLIP", "GRASP_DROP"}
+                                              "GRASP_MISSED", "GRASP_SLIP", "GRASP_DROP", "GRASP_UNVERIFIED"}
     assert d["grasp"]["enabled"] is True and d["grasp"]["select"]["constrained"] is True

@@ -10,17 +10,24 @@ approach through the cabinet's face frame that an INSPECT motion had passed with
 selection is executed in the World's physics (`sim.grasp_exec`). Nothing here reads ground
 truth: the physics decides whether the lift worked, as the real robot's sensors would.
 The simulated clock advances by the selection (the trial's planning charge, or the measured
-compute time) plus the simulated duration of the grasp's motions.
+compute time) plus the simulated duration of the grasp's motions. With `verify` (look before
+moving, `trial.verify`) a selection is executed only when every voxel its manoeuvre sweeps is
+seen free or the robot's own; the stage first executes look views of the rest through the
+machine (their motions advance the machine's clock) and re-checks or re-selects.
 """
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from ..errors import CompassInputError
-from ..grasp.candidates import AntipodalProposer, PinnedProposer
+from ..grasp.checks import GraspChecks
+from ..motion.planner import plan
+from ..robot.ik import PandaIK
+from ..grasp.candidates import AntipodalProposer, GraspCandidates, PinnedProposer
+from ..grasp.robot_space import base_volume_mask
 from ..grasp.select import GraspFailure, GraspSelection, select_grasp
 from ..exploration.world_model import assumed_free_mask, mark_configs, method_safe_voxels
 from ..grasp.target import build_target_model
@@ -29,6 +36,8 @@ from ..robot.spheres import panda_sphere_model
 from ..sim.grasp_exec import ExecFailure, GraspOutcome, execute_grasp
 from ..sim.grasp_only import near_body_unknown
 from .result import TrialFailure
+from .inspect import InspectPlan
+from .verify import RecordingProposer, manoeuvre, swept_occupied, swept_unknown
 
 _SELECT_FAILURE = {
     GraspFailure.NO_CANDIDATE: TrialFailure.GRASP_NO_CANDIDATE,
@@ -49,7 +58,9 @@ _EXEC_FAILURE = {
 class GraspStageResult:
     """failure None when the target was lifted and held without collision; duration_s [s]
     charged to the simulated clock (selection + motions); selection / outcome (None when
-    not reached); q_end (7,) [rad]; n_collisions of the arm with anything but the target."""
+    not reached); q_end (7,) [rad]; n_collisions of the arm with anything but the target;
+    n_looks: look views executed before the grasp (`GraspTrialConfig.verify`); look_log: per
+    check of a chosen manoeuvre, its unknown and occupied swept voxels and the view's outcome."""
 
     failure: TrialFailure | None
     duration_s: float
@@ -57,6 +68,8 @@ class GraspStageResult:
     outcome: GraspOutcome | None
     q_end: np.ndarray
     n_collisions: int
+    n_looks: int = 0
+    look_log: tuple = ()
 
     @property
     def gpq(self) -> float | None:
@@ -84,9 +97,33 @@ def assumed_unknown_free(occ, config, spheres, q_home: np.ndarray, task, rules) 
     return out
 
 
+def own_space(occ, spheres, moved: list[np.ndarray], config) -> np.ndarray:
+    """(nx, ny, nz) bool: the robot's executed way (`moved`, joint paths (m,7) [rad], at most
+    max_moved_configs of them, spheres grown by moved_margin [m]) less the voxels seen occupied."""
+    own = np.zeros(occ.shape, bool)
+    if moved:
+        Q = np.vstack([np.asarray(p, dtype=np.float64).reshape(-1, 7) for p in moved])
+        Q = Q[:: max(1, len(Q) // config.max_moved_configs)]
+        mark_configs(own, occ, spheres, Q, config.moved_margin)
+        own &= occ.state != VoxelState.OCCUPIED
+    return own
+
+
+def strict_transfer(occ, target, spheres, q: np.ndarray, q_pregrasp: np.ndarray, own: np.ndarray, config, fine,
+                    rng: np.random.Generator) -> np.ndarray | None:
+    """(m, 7) [rad]: a path from q to q_pregrasp planned by the selection's planner on its
+    checker with only the robot's own space (`own`) taken as free besides the space seen free
+    (no assumption about unknown space), or None when none plans."""
+    checks = GraspChecks(occ, target, spheres, PandaIK(spheres.kinematics), config.select,
+                         (spheres.sphere_centers(q[None])[0], spheres.radii + config.select.robot_clearance),
+                         own, q, fine_map=fine)
+    res = plan(q, np.asarray(q_pregrasp, dtype=np.float64)[None], checks.full, config.select.planner, rng)
+    return np.asarray(res.path) if res.success else None
+
+
 def run_grasp_stage(world, occupancy, detection, task, q_current: np.ndarray, moved: list[np.ndarray],
                     config, rng: np.random.Generator, planning_charge_s: float | None,
-                    grasp_map=None, pinned=None, method_rules=None) -> GraspStageResult:
+                    grasp_map=None, pinned=None, method_rules=None, looker=None, look=None) -> GraspStageResult:
     """Select and execute a grasp of the detected target from q_current (7,) [rad].
 
     occupancy: the method's map; detection: the accepted `perception.detector.Detection`;
@@ -100,36 +137,95 @@ def run_grasp_stage(world, occupancy, detection, task, q_current: np.ndarray, mo
     hypotheses, `trial.grasp_views.GraspInspector.pinned`), or None; method_rules: the
     method's `exploration.world_model.WorldModelConfig`: with `config.outside_free` the
     unknown space its validity checker takes as free (outside the confined space, away from
-    seen obstacles) is free for the grasp too."""
+    seen obstacles) is free for the grasp too. With `config.verify` (`trial.verify`, look
+    before moving): looker, a `trial.verify.LookPlanner`, and look, the machine's
+    `look(InspectPlan) -> "moved" | "none" | "collision"` (it executes the view, feeds its
+    frames to the maps and advances the clock; `moved` grows by the view's path)."""
     if rng is None:
         raise CompassInputError("run_grasp_stage needs an explicit np.random.Generator (rng)")
-    q_current = np.asarray(q_current, dtype=np.float64)
+    q = np.asarray(q_current, dtype=np.float64)
     points = np.asarray(detection.points_world, dtype=np.float64).reshape(-1, 3)
     if len(points) < 10:
-        return GraspStageResult(TrialFailure.GRASP_NO_CANDIDATE, 0.0, None, None, q_current, 0)
-    target = build_target_model(points, detection.T_world_cam[:3, 3], task.target, occupancy, config.target)
+        return GraspStageResult(TrialFailure.GRASP_NO_CANDIDATE, 0.0, None, None, q, 0)
+    verify = config.verify
+    if verify is not None and (looker is None or look is None):
+        raise CompassInputError("GraspTrialConfig.verify needs a looker and the machine's look callback")
     spheres = panda_sphere_model(world.robot)
-    extra = np.zeros(occupancy.shape, bool)
-    if moved:  # the robot's way is its own space, except where a voxel was seen occupied since
-        Q = np.vstack([np.asarray(p, dtype=np.float64).reshape(-1, 7) for p in moved])
-        Q = Q[:: max(1, len(Q) // config.max_moved_configs)]
-        mark_configs(extra, occupancy, spheres, Q, config.moved_margin)
-        extra &= occupancy.state != VoxelState.OCCUPIED
-    extra |= assumed_unknown_free(occupancy, config, spheres, np.asarray(world.robot.q_home), task, method_rules)
-    fine, t_fine = None, 0.0
-    if grasp_map is not None and config.fine_map and grasp_map.frames:
-        t0 = time.perf_counter()
-        fine = grasp_map.fine_map_around(points, config.fine_margin, config.select.field_upsample)
-        t_fine = time.perf_counter() - t0
-    proposer = None if pinned is None or len(pinned) == 0 else \
-        PinnedProposer(AntipodalProposer(config.select.candidates), pinned)
-    sel = select_grasp(target, occupancy, task, q_current, spheres, config.select, rng, proposer=proposer,
-                       extra_safe=extra,
-                       fine_map=fine, q_via=np.asarray(world.robot.q_home) if config.plan_via_home else None)
-    charge = sel.time_s + t_fine if planning_charge_s is None else planning_charge_s
-    if sel.failure is not None:
-        return GraspStageResult(_SELECT_FAILURE[sel.failure], charge, sel, None, q_current, 0)
-    outcome = execute_grasp(world, sel, q_current, config.execute)
+    charge, n_views, chosen, sel, log = 0.0, 0, None, None, []
+    q_home = np.asarray(world.robot.q_home)
+
+    def model():
+        return build_target_model(points, detection.T_world_cam[:3, 3], task.target, occupancy, config.target)
+
+    for round_ in range(1 if verify is None else verify.max_rounds):
+        target, own = model(), own_space(occupancy, spheres, moved, config)
+        extra = own | assumed_unknown_free(occupancy, config, spheres, q_home, task, method_rules)
+        fine, t_fine = None, 0.0
+        if grasp_map is not None and config.fine_map and grasp_map.frames:
+            t0 = time.perf_counter()
+            fine = grasp_map.fine_map_around(points, config.fine_margin, config.select.field_upsample)
+            t_fine = time.perf_counter() - t0
+        first = GraspCandidates.concat([c for c in (chosen, pinned) if c is not None])
+        proposer = RecordingProposer(AntipodalProposer(config.select.candidates) if len(first) == 0 else
+                                     PinnedProposer(AntipodalProposer(config.select.candidates), first))
+        sel = None
+        if verify is not None and verify.strict_first:  # through known-free space first
+            sel = select_grasp(target, occupancy, task, q, spheres, config.select, rng, proposer=proposer,
+                               extra_safe=own, fine_map=fine)
+            charge += sel.time_s + t_fine if planning_charge_s is None else planning_charge_s
+        if sel is None or sel.failure is not None:
+            sel = select_grasp(target, occupancy, task, q, spheres, config.select, rng, proposer=proposer,
+                               extra_safe=extra, fine_map=fine, q_via=q_home if config.plan_via_home else None)
+            charge += sel.time_s + t_fine if planning_charge_s is None else planning_charge_s
+        if sel.failure is not None:
+            return GraspStageResult(_SELECT_FAILURE[sel.failure], charge, sel, None, q, 0, n_views, tuple(log))
+        if verify is None:
+            break
+        chosen = proposer.chosen(sel)
+        Q_grasp, blocked0, strict_path = manoeuvre(sel, verify.step, transfer=False), None, None
+        while True:  # the grasp's own motions first, then a transfer through space seen free
+            own = own_space(occupancy, spheres, moved, config) | base_volume_mask(spheres, occupancy)
+            mark_configs(own, occupancy, spheres, q[None], config.select.robot_clearance)
+            if verify.trust_outside_space and method_rules is not None:  # the baselines' rule, not Omega_safe's
+                rule = replace(method_rules, near_base_box=None)
+                own |= method_safe_voxels(occupancy, own, assumed_free_mask(occupancy, task, rule), rule.obstacle_halo)
+            target = model()
+            unknown = swept_unknown(occupancy, spheres, Q_grasp, verify.inflate, own, target, config.select.clearance)
+            blocked = swept_occupied(occupancy, spheres, Q_grasp, target, config.select.clearance)
+            blocked0 = blocked if blocked0 is None else blocked0  # what the selection accepted (hand on the fine map)
+            blocked = max(0, blocked - blocked0)
+            log.append({"round": round_, "unknown_grasp": int(len(unknown)), "occupied": int(blocked)})
+            if blocked:
+                break
+            if len(unknown) == 0:
+                strict_path = strict_transfer(occupancy, target, spheres, q, sel.q_pregrasp, own, config, fine, rng)
+                log[-1]["strict_path"] = strict_path is not None
+                if strict_path is not None:
+                    sel = replace(sel, path=strict_path)
+                unknown = swept_unknown(occupancy, spheres, manoeuvre(sel, verify.step), verify.inflate, own, target,
+                                        config.select.clearance)
+                log[-1]["unknown_all"] = int(len(unknown))
+                if len(unknown) == 0:
+                    break
+            if n_views >= verify.max_views:
+                break
+            p = looker(q, occupancy, occupancy.voxel_to_world(unknown), moved)
+            charge += p.plan_time_s if planning_charge_s is None else planning_charge_s
+            done = look(p)
+            log[-1].update(view=done, gain=p.gain, n_valid=p.n_valid)
+            if done == "moved":  # back along the way it came (its own space): the manoeuvre starts here
+                n_views += 1
+                done = look(InspectPlan(np.asarray(p.path)[::-1].copy(), 0, 0, 0.0), count=False)
+            if done == "collision":
+                return GraspStageResult(TrialFailure.COLLISION, charge, sel, None, q, 0, n_views, tuple(log))
+            if done != "moved":  # no view sees them: refuse rather than move through the unknown
+                return GraspStageResult(TrialFailure.GRASP_UNVERIFIED, charge, sel, None, q, 0, n_views, tuple(log))
+        if not blocked and len(unknown) == 0:
+            break
+        if not blocked or round_ == verify.max_rounds - 1:  # the look budget is spent
+            return GraspStageResult(TrialFailure.GRASP_UNVERIFIED, charge, sel, None, q, 0, n_views, tuple(log))
+    outcome = execute_grasp(world, sel, q, config.execute)
     failure = None if outcome.failure is None else _EXEC_FAILURE[outcome.failure]
-    q_end = sel.q_lift if outcome.failure is None else q_current
-    return GraspStageResult(failure, charge + outcome.t, sel, outcome, np.asarray(q_end), len(outcome.collisions))
+    q_end = sel.q_lift if outcome.failure is None else q
+    return GraspStageResult(failure, charge + outcome.t, sel, outcome, np.asarray(q_end), len(outcome.collisions),
+                            n_views, tuple(log))

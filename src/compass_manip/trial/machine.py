@@ -67,7 +67,8 @@ class MachineOutcome:
 class TrialMachine:
     """Runs one trial of `method` in `world` (see the module docstring). `pass_frames`: push
     whole frames (with labels) to the buffer, for the oracle detector only. grasp: the GRASP
-    state, `grasp(q_current, detection, executed_paths) -> GraspStageResult`, or None for a
+    state, `grasp(q_current, detection, executed_paths, look=...) -> GraspStageResult` (look: the
+    machine's executor of the grasp stage's look views, `_look`), or None for a
     find-only trial. inspect: the INSPECT
     state before GRASP, `inspect(q_current, detection) -> trial.inspect.InspectPlan`,
     called up to n_inspect times while the time limit allows (None: no INSPECT). `observer`: a `trial.observer.TrialObserver` told of every event
@@ -86,6 +87,7 @@ class TrialMachine:
         self.inspect, self.n_inspect = inspect, n_inspect
         self.moved: list[np.ndarray] = []
         self.n_inspected = 0
+        self.n_looked = 0
 
     def _feed(self, frame) -> None:
         obs = frame.observation()
@@ -147,7 +149,8 @@ class TrialMachine:
             failure = self._inspect(found.detection, ex_cfg, render_seg)
         if failure is None and found is not None and self.grasp is not None:
             self._enter(TrialState.GRASP)
-            grasped = self.grasp(self.world.q, found.detection, self.moved)
+            grasped = self.grasp(self.world.q, found.detection, self.moved,
+                                 look=lambda p, count=True: self._look(p, ex_cfg, render_seg, count))
             sel = grasped.selection
             if sel is not None and sel.T_world_tcp is not None:
                 self.observer.grasp_candidates(self.t, sel.T_world_tcp[None], np.array([sel.score]))
@@ -185,6 +188,23 @@ class TrialMachine:
                 return TrialFailure.COLLISION
             self.n_inspected += 1
         return None
+
+    def _look(self, p, ex_cfg, render_seg, count: bool = True) -> str:
+        """A look view of the GRASP state (`trial.verify`), executed like an INSPECT view: its
+        plan counts in MPSR, its motion advances the clock and its frames feed the maps (its
+        planning charge is the grasp stage's). Returns "moved", "none" (no plan, no path, or
+        the time limit reached) or "collision". count=False: a motion that was not planned (the
+        way back along the view's path) is not counted in MPSR."""
+        if self.t >= self.config.time_limit_s or not p.planned:
+            return "none"
+        self.metrics.plans_attempted += int(count)
+        if p.path is None:
+            return "none"
+        self.metrics.plans_succeeded += int(count)
+        if self._move(p.path, ex_cfg, render_seg):
+            return "collision"
+        self.n_looked += int(count)
+        return "moved"
 
     def _move(self, path, ex_cfg, render_seg) -> bool:
         """Execute a joint path (n,7) [rad] on the simulated timeline: its frames feed the

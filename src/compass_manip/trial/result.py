@@ -23,6 +23,9 @@ class TrialFailure(enum.Enum):
     GRASP_MISSED = "found, but the fingers closed without holding the target"
     GRASP_SLIP = "found, but the target did not rise with the hand"
     GRASP_DROP = "found, but the target was lost during the hold"
+    #: look before moving (`GraspTrialConfig.verify`): the chosen manoeuvre still sweeps unknown
+    #: voxels when the look budget is spent (or no view sees them), so it is not executed
+    GRASP_UNVERIFIED = "found, but the grasp's swept space could not be seen free in the look budget"
 
 
 @dataclass(frozen=True)
@@ -36,7 +39,8 @@ class TrialResult:
     held. found: the target was found (a true detection within the limit); gpq: the selected
     grasp's Grasp Pose Quality (None when no grasp was selected or find-only); grasp_s [s]
     simulated time of the GRASP state (None when not entered); lift_m [m] the target's rise
-    after the hold (None when no grasp was executed)."""
+    after the hold (None when no grasp was executed); grasp_looks: look views the GRASP state
+    executed before moving (`GraspTrialConfig.verify`; None when not entered)."""
 
     method: str
     level: int
@@ -59,6 +63,7 @@ class TrialResult:
     found: bool = False
     grasp_s: float | None = None
     lift_m: float | None = None
+    grasp_looks: int | None = None
 
     @property
     def success(self) -> bool:
@@ -77,5 +82,5 @@ class TrialResult:
             "decisions": self.decisions, "planning_ms_median": r(self.planning_ms_median, 2),
             "planning_ms_p90": r(self.planning_ms_p90, 2), "wall_s": r(self.wall_s, 3),
             "true_detection": self.true_detection, "found": self.found, "grasp_s": r(self.grasp_s, 3),
-            "lift_m": r(self.lift_m),
+            "lift_m": r(self.lift_m), "grasp_looks": self.grasp_looks,
         }

@@ -29,6 +29,7 @@ from .grasp_map import GraspMap, GraspWorld
 from .grasp_scan import NearFieldScanner
 from .grasp_views import GraspInspector
 from .inspect import plan_inspect_view
+from .verify import LookPlanner
 from .machine import MachineOutcome, TrialMachine
 from .metrics import MetricsRecorder
 from .observer import ObserverGroup
@@ -150,10 +151,16 @@ def run_trial_full(spec: TrialSpec, config: TrialConfig | None = None, progress=
 
         inspector = inspect.then if isinstance(inspect, NearFieldScanner) else inspect
 
-        def grasp(q, detection, moved):  # INSPECT's grasp hypotheses are checked first
+        looker = None
+        if config.grasp.verify is not None and own is not None:  # look before moving (trial.verify)
+            look_rng = np.random.default_rng(np.random.SeedSequence((spec.seed, spec.level, spec.scene, spec.trial, 14)))
+            looker = LookPlanner(method.world, world.camera.K, world.robot.base_pos, config.grasp.verify, look_rng)
+        grasp_config = config.grasp if own is not None else replace(config.grasp, verify=None)
+
+        def grasp(q, detection, moved, look=None):  # INSPECT's grasp hypotheses are checked first
             pinned = inspector.pinned if isinstance(inspector, GraspInspector) else None
-            return run_grasp_stage(world, grasp_occ, detection, task, q, moved, config.grasp, grasp_rng, charge,
-                                   grasp_map=gmap, pinned=pinned, method_rules=rules)
+            return run_grasp_stage(world, grasp_occ, detection, task, q, moved, grasp_config, grasp_rng, charge,
+                                   grasp_map=gmap, pinned=pinned, method_rules=rules, looker=looker, look=look)
     try:
         outcome = TrialMachine(world, method, buffer, metrics, config, progress, pass_frames=oracle,
                                grasp=grasp, observer=observers,
@@ -182,5 +189,6 @@ def run_trial_full(spec: TrialSpec, config: TrialConfig | None = None, progress=
         explored_curve=tuple(metrics.explored), decisions=metrics.decisions, planning_ms_median=med,
         planning_ms_p90=p90, wall_s=time.perf_counter() - wall0, true_detection=true_det,
         found=found, grasp_s=None if g is None else g.duration_s, lift_m=None if g is None else g.lift_m,
+        grasp_looks=None if g is None else g.n_looks,
     )
     return TrialRun(result, outcome, scene, metrics)

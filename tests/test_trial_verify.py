@@ -1,0 +1,178 @@
+"""Look before moving (trial/verify.py and its loop in trial/grasp_stage.py): the swept
+unknown voxels on a constructed map, and the stage executes only a manoeuvre whose swept
+voxels are seen free."""
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from compass_manip.errors import CompassInputError
+from compass_manip.mapping.occupancy import MapConfig, OccupancyMap, VoxelState
+from compass_manip.robot.model import RobotConfig
+from compass_manip.robot.spheres import panda_sphere_model
+from compass_manip.trial import grasp_stage
+from compass_manip.trial.config import GraspTrialConfig
+from compass_manip.trial.result import TrialFailure
+from compass_manip.trial.verify import VerifyConfig, manoeuvre, swept_mask, swept_occupied, swept_unknown
+
+ROBOT = RobotConfig()
+SPHERES = panda_sphere_model(ROBOT)
+Q_HOME = np.asarray(ROBOT.q_home)
+FAR_TARGET = SimpleNamespace(points=np.array([[5.0, 5.0, 5.0], [5.01, 5.0, 5.0]]), axes=np.eye(3), bottom_z=5.0)
+
+
+def _map() -> OccupancyMap:
+    return OccupancyMap(MapConfig(resolution=0.02))
+
+
+def _path() -> np.ndarray:
+    q1 = Q_HOME + np.array([0.6, 0.2, 0.0, 0.3, 0.0, 0.0, 0.0])
+    return np.stack([Q_HOME, q1])
+
+
+def test_a_voxel_on_the_path_is_flagged_while_unknown_and_not_once_seen_free():
+    occ = _map()
+    Q = _path()
+    swept = swept_mask(occ, SPHERES, Q, 0.009)
+    own = np.zeros(occ.shape, bool)
+    flagged = swept_unknown(occ, SPHERES, Q, 0.009, own)
+    assert len(flagged) == np.count_nonzero(swept) > 100  # all unknown: every swept voxel
+    i, j, k = flagged[len(flagged) // 2]
+    occ.state[i, j, k] = VoxelState.FREE  # that one voxel seen free
+    again = {tuple(v) for v in swept_unknown(occ, SPHERES, Q, 0.009, own)}
+    assert (i, j, k) not in again and len(again) == len(flagged) - 1
+    own[tuple(flagged[:10].T)] = True  # the robot's own way is not unknown to it
+    assert len(swept_unknown(occ, SPHERES, Q, 0.009, own)) == len(flagged) - 1 - 10
+    occ.state[swept] = VoxelState.FREE
+    assert len(swept_unknown(occ, SPHERES, Q, 0.009, own)) == 0
+    # a voxel off the path is never flagged
+    occ.state[:] = VoxelState.UNKNOWN
+    occ.state[~swept] = VoxelState.FREE
+    assert len(swept_unknown(occ, SPHERES, Q, 0.009, np.zeros(occ.shape, bool))) == np.count_nonzero(swept)
+
+
+def test_the_swept_space_grows_with_the_path_and_the_inflation_and_sees_occupied_voxels():
+    occ = _map()
+    short = swept_mask(occ, SPHERES, _path()[:1], 0.0)
+    assert np.count_nonzero(swept_mask(occ, SPHERES, _path(), 0.0)) > np.count_nonzero(short)
+    assert np.count_nonzero(swept_mask(occ, SPHERES, _path()[:1], 0.03)) > np.count_nonzero(short)
+    occ.state[:] = VoxelState.FREE
+    assert swept_occupied(occ, SPHERES, _path(), FAR_TARGET, 0.055) == 0
+    v = np.argwhere(short)[0]
+    occ.state[tuple(v)] = VoxelState.OCCUPIED
+    assert swept_occupied(occ, SPHERES, _path(), FAR_TARGET, 0.055) == 1
+    with pytest.raises(CompassInputError, match="own has shape"):
+        swept_unknown(occ, SPHERES, _path(), 0.0, np.zeros((2, 2, 2), bool))
+
+
+def test_the_manoeuvre_is_transfer_approach_and_lift_densified():
+    sel = SimpleNamespace(path=_path(), q_pregrasp=_path()[-1], q_grasp=_path()[-1] + 0.1, q_lift=_path()[-1] + 0.2)
+    Q = manoeuvre(sel, 0.02)
+    assert np.allclose(Q[0], Q_HOME) and np.allclose(Q[-1], sel.q_lift)
+    assert np.max(np.abs(np.diff(Q, axis=0))) <= 0.02 + 1e-12
+    assert np.allclose(manoeuvre(sel, 0.02, transfer=False)[0], sel.q_pregrasp)
+
+
+def test_verify_config_rejects_bad_values():
+    with pytest.raises(CompassInputError, match="max_views"):
+        VerifyConfig(max_views=-1)
+    with pytest.raises(CompassInputError, match="view_distance"):
+        VerifyConfig(view_distance=(0.6, 0.3))
+    with pytest.raises(CompassInputError, match="verify"):
+        GraspTrialConfig(verify=3)
+    import json
+
+    from compass_manip.trial.config import TrialConfig
+    d = TrialConfig(grasp=GraspTrialConfig(verify=VerifyConfig(max_views=12))).to_dict()
+    assert json.loads(json.dumps(d)) == d and d["grasp"]["verify"]["max_views"] == 12
+    assert TrialConfig().to_dict()["grasp"]["verify"] is None  # off by default
+
+
+@pytest.fixture
+def stage(monkeypatch):
+    """run_grasp_stage with a fixed selection (home -> a pose beside it), the target far away,
+    no strict transfer, and an executor that records whether it ran."""
+    ran = []
+    q1 = _path()[-1]
+    sel = SimpleNamespace(failure=None, path=_path(), q_pregrasp=q1, q_grasp=q1, q_lift=q1, T_world_tcp=None,
+                          time_s=0.0)
+    monkeypatch.setattr(grasp_stage, "select_grasp", lambda *a, **k: sel)
+    monkeypatch.setattr(grasp_stage, "build_target_model", lambda *a, **k: FAR_TARGET)
+    monkeypatch.setattr(grasp_stage, "strict_transfer", lambda *a, **k: None)
+    monkeypatch.setattr(grasp_stage, "execute_grasp",
+                        lambda world, s, q, cfg: ran.append(q) or SimpleNamespace(failure=None, t=1.0, collisions=[]))
+    occ = _map()
+    world = SimpleNamespace(robot=ROBOT, q=Q_HOME.copy())
+    det = SimpleNamespace(points_world=np.zeros((20, 3)) + 0.5, T_world_cam=np.eye(4))
+    task = SimpleNamespace(target=None)
+
+    def run(config, look, task=task, rules=None):
+        looker = lambda q, occ_, centres, way=None: SimpleNamespace(path=np.stack([q, q]), planned=True, gain=5,
+                                                                     n_valid=1, plan_time_s=0.0)
+        return grasp_stage.run_grasp_stage(world, occ, det, task, Q_HOME, [], config, np.random.default_rng(0), 0.1,
+                                           looker=looker, look=look, method_rules=rules)
+    return SimpleNamespace(run=run, occ=occ, ran=ran)
+
+
+def test_the_stage_refuses_a_manoeuvre_through_unknown_space_when_the_budget_is_spent(stage):
+    calls = []
+    r = stage.run(GraspTrialConfig(near_body_free=False, verify=VerifyConfig(max_views=0)),
+                  lambda p, count=True: calls.append(p) or "moved")
+    assert r.failure is TrialFailure.GRASP_UNVERIFIED and r.outcome is None and not stage.ran and not calls
+    assert r.look_log[0]["unknown_grasp"] > 0
+    r = stage.run(GraspTrialConfig(near_body_free=False, verify=VerifyConfig(max_views=2)),
+                  lambda p, count=True: "none")  # no view could be reached
+    assert r.failure is TrialFailure.GRASP_UNVERIFIED and not stage.ran
+
+
+def test_the_stage_executes_once_a_look_has_seen_the_swept_space_free(stage):
+    calls = []
+
+    def look(p, count=True):  # the view (counted) and the way back (not counted); the view sees all free
+        calls.append(count)
+        stage.occ.state[:] = VoxelState.FREE
+        return "moved"
+    r = stage.run(GraspTrialConfig(near_body_free=False, verify=VerifyConfig(max_views=3)), look)
+    assert r.failure is None and len(stage.ran) == 1 and r.n_looks == 1 and calls == [True, False]
+    assert r.duration_s == pytest.approx(0.1 + 0.1 + 1.0)  # the (strict) selection, the view's plan, the grasp
+
+
+def _task(lo, hi):
+    space = SimpleNamespace(interior_min=lo, interior_max=hi, wall_thickness=0.02, outward=(-1.0, 0.0, 0.0))
+    return SimpleNamespace(target=None, space=space, floor_z=-0.5, robot_base_pos=(0.0, 0.0, 0.0))
+
+
+def test_trusting_the_space_outside_the_confined_space_needs_no_look_there_only(stage):
+    from compass_manip.exploration.world_model import WorldModelConfig
+    config = GraspTrialConfig(near_body_free=False, verify=VerifyConfig(max_views=0, trust_outside_space=True))
+    rules = WorldModelConfig(near_base_box=((-0.5, -0.5, 0.0), (0.5, 0.5, 1.0)))  # COMPASS's box: ignored here
+    far = stage.run(config, lambda p, count=True: "none", _task((2.0, 2.0, 0.3), (2.5, 2.5, 0.8)), rules)
+    assert far.failure is None and len(stage.ran) == 1  # the whole arm is outside the confined space
+    around = stage.run(config, lambda p, count=True: "none", _task((-1.0, -1.0, 0.0), (1.0, 1.0, 1.2)), rules)
+    assert around.failure is TrialFailure.GRASP_UNVERIFIED and len(stage.ran) == 1  # inside it: unknown is unknown
+    off = stage.run(GraspTrialConfig(near_body_free=False, verify=VerifyConfig(max_views=0)),
+                    lambda p, count=True: "none", _task((2.0, 2.0, 0.3), (2.5, 2.5, 0.8)), rules)
+    assert off.failure is TrialFailure.GRASP_UNVERIFIED
+
+
+def test_the_stage_needs_the_look_callbacks_with_verify():
+    with pytest.raises(CompassInputError, match="verify"):
+        grasp_stage.run_grasp_stage(SimpleNamespace(robot=ROBOT), _map(), SimpleNamespace(
+            points_world=np.zeros((20, 3)), T_world_cam=np.eye(4)), None, Q_HOME, [],
+            GraspTrialConfig(verify=VerifyConfig()), np.random.default_rng(0), 0.1)
+
+
+@pytest.mark.slow
+def test_same_seed_gives_an_identical_trial_with_look_before_moving():
+    from dataclasses import replace
+
+    from compass_manip.trial.config import TrialConfig
+    from compass_manip.trial.inspect import InspectConfig
+    from compass_manip.trial.runner import TrialSpec, run_trial
+    config = TrialConfig(grasp=GraspTrialConfig(grasp_map=True, near_body_halo=0.08, inspect=InspectConfig(n_views=2),
+                                                verify=VerifyConfig(max_views=2)))
+    a = run_trial(TrialSpec("compass", 1, 0, 0, 101), config).to_dict()
+    b = run_trial(TrialSpec("compass", 1, 0, 0, 101), replace(config)).to_dict()
+    for k in ("wall_s", "planning_ms_median", "planning_ms_p90"):  # measured compute times, not the trial
+        a.pop(k), b.pop(k)
+    assert a == b and a["grasp_looks"] is not None  # GRASP was entered with the look loop
