@@ -44,7 +44,7 @@ def _u(rng, lo, hi) -> float:
 #: tall target and the hand lifting it near its top), floor height [m] (the storey stays below
 #: the start camera's view), least depth of the interior's back wall from the base [m] (the
 #: target stands deep) and the face-frame rail under the shelves [m].
-SEVERE_CLEARANCE = (0.34, 0.35)
+SEVERE_CLEARANCE = (0.35, 0.36)
 SEVERE_Z_BOTTOM = (0.26, 0.30)
 SEVERE_MIN_X_BACK = 0.74
 SEVERE_RAIL = (0.05, 0.065)

@@ -34,7 +34,7 @@ TARGET_MASS = (0.08, 0.2)
 #: Room above the bottle's top [m] the hand, its camera and the 4 cm lift need.
 HEADROOM = 0.125
 #: Occluder: its top below the bottle's top [m], gap to the bottle [m], depth and width [m].
-DROP = (0.062, 0.07)
+DROP = (0.067, 0.075)
 GAP = (0.015, 0.02)
 OCC_DEPTH = (0.045, 0.05)
 OCC_WIDTH = (0.19, 0.24)
@@ -47,7 +47,7 @@ CORRIDOR_HALF_WIDTH = 0.095
 #: The target's compartment reaches this far from the base [m] (not the part of a storey in
 #: front of a back-corner compartment).
 MIN_X_BACK = 0.73
-MAX_Y_OFFSET = 0.06
+MAX_Y_OFFSET = 0.04
 
 
 def _u(rng: np.random.Generator, lo: float, hi: float) -> float:
