@@ -85,7 +85,7 @@ class CertifyConfig:
     min_view_visibility: float = 0.3
     max_start_visibility: float = 0.05
     min_obstacle_removal: float = 0.3
-    max_attempts: int = 200
+    max_attempts: int = 400
     n_q7: int = 6
     n_q7_grasp: int = 12
     max_grasp_candidates: int = 24
