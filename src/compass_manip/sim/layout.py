@@ -43,7 +43,8 @@ def _u(rng, lo, hi) -> float:
 #: Severe levels' bottom storey (`draw_cabinet(rng, severe=True)`): clearance [m] (room for a
 #: tall target and the hand lifting it near its top), floor height [m] (the storey stays below
 #: the start camera's view), least depth of the interior's back wall from the base [m] (the
-#: target stands deep) and the face-frame rail under the shelves [m].
+#: target stands deep) and the face-frame rail under the shelves [m]. Storey and rail leave the
+#: forearm 1 cm under the rail while it lifts the target (the severe grasp margin, `certify`).
 SEVERE_CLEARANCE = (0.36, 0.37)
 SEVERE_Z_BOTTOM = (0.26, 0.30)
 SEVERE_MIN_X_BACK = 0.74
