@@ -12,7 +12,7 @@ from compass_manip.sim.levels import generate_scene
 from compass_manip.sim.world import World
 
 #: a certified level-2 scene of a development seed (not the default set's seed 0)
-SUB_SEED = (7, 2, 1, 4)
+SUB_SEED = (7, 2, 1, 12)  # a certified severe candidate of the layout re-drawn by branch gsev
 
 
 def test_outside_positions_cover_the_reachable_zone_in_front_of_the_opening_only():

@@ -13,7 +13,10 @@ planner's own conservative sphere model on the ground-truth geometry:
    levels); a good sampled view found later in that zone fails the scene the same way, so a
    certified severe view lies inside or at the opening;
 4. a reachable grasp exists whose pre-grasp, grasp and lift and the straight segments
-   between them are collision-free (checked before the views: it fails more often);
+   between them are collision-free (checked before the views: it fails more often); at the
+   severe levels with the sphere model grown by `severe_grasp_margin` (1 cm: a grasp that
+   keeps only millimetres to the box below it, the rail above or the back wall is one no
+   map of 1 cm voxels with a 5 mm fine map around the target can show to be free);
 5. a reachable, collision-free camera pose sees >= `min_view_visibility` of the target;
    moderate levels (1, 3): one of them is reached on a path along which the camera's
    distance to the target never grows (monotonic approach, checked with step 7);
@@ -70,7 +73,10 @@ class CertifyConfig:
     bottle behind a low wide box grasped by its neck, is hidden from the reference set in
     most candidates, so the gate rarely fires; docs/scenes.md). reject_outside_visible_severe:
     make step 3b a gate; n_severe_inside_views: poses inside or at the opening the severe
-    levels' view search adds to its n_view_poses (`view_search.inside_view_poses`)."""
+    levels' view search adds to its n_view_poses (`view_search.inside_view_poses`).
+    severe_grasp_margin [m]: at the severe levels the grasp, its pre-grasp, lift and the
+    straight segments between them (step 4) keep this clearance more than `margin` from
+    everything but the target (the hand's and arm's spheres grown by it)."""
 
     n_views: int = 40
     n_view_poses: int = 160
@@ -79,7 +85,7 @@ class CertifyConfig:
     min_view_visibility: float = 0.3
     max_start_visibility: float = 0.05
     min_obstacle_removal: float = 0.3
-    max_attempts: int = 200
+    max_attempts: int = 400
     n_q7: int = 6
     n_q7_grasp: int = 12
     max_grasp_candidates: int = 24
@@ -91,6 +97,11 @@ class CertifyConfig:
     reject_fv_solvable_severe: bool = True
     reject_outside_visible_severe: bool = True
     n_severe_inside_views: int = 60
+    severe_grasp_margin: float = 0.01
+
+    def __post_init__(self) -> None:
+        if not 0.0 <= self.severe_grasp_margin <= 0.05:
+            raise CompassInputError(f"severe_grasp_margin {self.severe_grasp_margin!r} m is not allowed; use 0..0.05 m")
 
 
 @dataclass(frozen=True)
@@ -211,7 +222,8 @@ def _certify(scene: SceneSpec, config: CertifyConfig, world: World, t0: float) -
     Q = np.clip(home + rng.uniform(-config.config_noise, config.config_noise, (config.n_configs, 7)), Q_MIN, Q_MAX)
     rec["free_config_fraction"] = float(np.mean(full.are_valid(Q)))
     ik = oracle.robot_ik(world.robot)
-    grasps, n_with, n_without = _grasps(world, config, ik, full, no_target, obstacles)
+    g_margin = config.margin + (config.severe_grasp_margin if severe else 0.0)
+    grasps, n_with, n_without = _grasps(world, config, ik, obstacles, g_margin)
     if obstacles:
         rec["grasps_removed_by_obstacles"] = 1.0 - n_with / n_without if n_without else 0.0
     lap("grasps")
@@ -313,16 +325,19 @@ def _line(a: np.ndarray, b: np.ndarray, duration: float = 1.2) -> Trajectory:
     return Trajectory(np.array([0.0, duration]), np.stack([a, b]))
 
 
-def _grasps(world: World, config: CertifyConfig, ik, full, no_target, obstacles: bool):
-    """Valid ground-truth grasps (at most 4 kept unless counting) and, with base obstacles, the
-    number of candidates valid with and without them (all candidates are then evaluated)."""
+def _grasps(world: World, config: CertifyConfig, ik, obstacles: bool, margin: float):
+    """Valid ground-truth grasps (at most 4 kept unless counting), checked with the sphere
+    model grown by margin [m], and, with base obstacles, the number of candidates valid with
+    and without them (all candidates are then evaluated)."""
     scene = world.scene
     home = np.asarray(world.robot.q_home)
     found: list[GroundTruthGrasp] = []
     n_with = n_without = 0
+    full = oracle.ground_truth_checker(scene, margin=margin)
+    no_target = oracle.ground_truth_checker(scene, exclude_target=True, margin=margin)
     if obstacles:
-        full_wo = oracle.ground_truth_checker(scene, base_obstacles=False, margin=config.margin)
-        nt_wo = oracle.ground_truth_checker(scene, exclude_target=True, base_obstacles=False, margin=config.margin)
+        full_wo = oracle.ground_truth_checker(scene, base_obstacles=False, margin=margin)
+        nt_wo = oracle.ground_truth_checker(scene, exclude_target=True, base_obstacles=False, margin=margin)
     for T, deg in oracle.grasp_candidates(scene)[:config.max_grasp_candidates]:
         sols = oracle.grasp_solutions(ik, T, home, config.n_q7_grasp)
         g = oracle.first_valid_grasp(ik, T, sols, full, no_target, world)

@@ -43,11 +43,12 @@ def _u(rng, lo, hi) -> float:
 #: Severe levels' bottom storey (`draw_cabinet(rng, severe=True)`): clearance [m] (room for a
 #: tall target and the hand lifting it near its top), floor height [m] (the storey stays below
 #: the start camera's view), least depth of the interior's back wall from the base [m] (the
-#: target stands deep) and the face-frame rail under the shelves [m].
-SEVERE_CLEARANCE = (0.34, 0.35)
+#: target stands deep) and the face-frame rail under the shelves [m]. Storey and rail leave the
+#: forearm 1 cm under the rail while it lifts the target (the severe grasp margin, `certify`).
+SEVERE_CLEARANCE = (0.36, 0.37)
 SEVERE_Z_BOTTOM = (0.26, 0.30)
 SEVERE_MIN_X_BACK = 0.74
-SEVERE_RAIL = (0.05, 0.065)
+SEVERE_RAIL = (0.04, 0.055)
 #: Severe levels' opening plane [m] from the base: as close as the home configuration allows
 #: (at x < 0.40 the face frame touches the arm at home), so the target at the back stands
 #: 0.28-0.32 m behind the opening and an eye outside it looks down behind the occluder less
