@@ -3,6 +3,9 @@
 A candidate scene is accepted only when, with the simulator's ground truth (`oracle`) and the
 planner's own conservative sphere model on the ground-truth geometry:
 1. home is free of contacts (MuJoCo, self included) and valid for the sphere model;
+1b. home clearance (`home_clearance`): nothing of the scene lies in the shell around the
+   robot's spheres at home that a method's world model assumes free (its start margins,
+   read from `WorldModelConfig`, plus half its voxel diagonal);
 2. the start camera sees < `max_start_visibility` of the target;
 3. severe levels (2, 4), if `reject_fv_solvable_severe`: no pose of the reference fixed-view
    set sees >= `min_view_visibility` (always measured and recorded as `fv_solvable`);
@@ -20,8 +23,9 @@ planner's own conservative sphere model on the ground-truth geometry:
 5. a reachable, collision-free camera pose sees >= `min_view_visibility` of the target;
    moderate levels (1, 3): one of them is reached on a path along which the camera's
    distance to the target never grows (monotonic approach, checked with step 7);
-6. levels 3, 4: the base obstacles remove >= `min_obstacle_removal` of the good views and
-   grasps the same scene has without them (counted together);
+6. levels 3, 4: the base obstacles remove >= `min_obstacle_removal` of the good views and,
+   on its own, of the valid grasps the same scene has without them (per kind; the severe
+   levels' good views counted over their inside poses too, `view_search.search_views`);
 7. home -> good view -> pre-grasp plan (`motion.planner.plan`), then pre-grasp -> grasp -> lift;
 8. physics: following pre-grasp -> grasp, closing and lifting holds the target.
 The first failing step is the certificate's `failure`; None means certified.
@@ -43,6 +47,7 @@ from .levels import check_level, generate_scene
 from .oracle import GroundTruthGrasp, find_grasp  # noqa: F401  (re-exported for older callers)
 from .physics import grasp_and_lift
 from . import outside_views, scene_cache
+from .home_clearance import home_clearance
 from .scenes import SceneSpec
 from .view_search import best_exact_visibility, sample_view_poses, search_views  # noqa: F401
 from .world import World
@@ -50,13 +55,14 @@ from .world import World
 
 class CertFailure(enum.Enum):
     HOME_IN_COLLISION = "home configuration in collision"
+    HOME_CLEARANCE = "scene geometry in the start shell a method assumes free"
     TARGET_VISIBLE_AT_START = "target visible from the start camera"
     FIXED_VIEW_SEES_TARGET = "a reference fixed view sees the target (severe level)"
     OUTSIDE_VIEW_SEES_TARGET = "a camera outside the opening sees the target (severe level)"
     NO_VIEW_SEES_TARGET = "no reachable collision-free view sees the target"
     NO_MONOTONIC_VIEW = "no good view is reached by a monotonic camera approach (moderate level)"
     NO_GRASP = "no reachable collision-free grasp"
-    OBSTACLES_TOO_WEAK = "base obstacles remove too few good views and grasps"
+    OBSTACLES_TOO_WEAK = "base obstacles remove too few good views or too few grasps"
     NO_PATH = "home -> view -> pre-grasp does not plan"
     LIFT_FAILED = "the grasp does not lift the target in physics"
 
@@ -76,7 +82,8 @@ class CertifyConfig:
     levels' view search adds to its n_view_poses (`view_search.inside_view_poses`).
     severe_grasp_margin [m]: at the severe levels the grasp, its pre-grasp, lift and the
     straight segments between them (step 4) keep this clearance more than `margin` from
-    everything but the target (the hand's and arm's spheres grown by it)."""
+    everything but the target (the hand's and arm's spheres grown by it).
+    check_home_clearance: make step 1b a gate (off only to measure what it rejects)."""
 
     n_views: int = 40
     n_view_poses: int = 160
@@ -98,6 +105,7 @@ class CertifyConfig:
     reject_outside_visible_severe: bool = True
     n_severe_inside_views: int = 60
     severe_grasp_margin: float = 0.01
+    check_home_clearance: bool = True
 
     def __post_init__(self) -> None:
         if not 0.0 <= self.severe_grasp_margin <= 0.05:
@@ -211,6 +219,8 @@ def _certify(scene: SceneSpec, config: CertifyConfig, world: World, t0: float) -
     no_target = oracle.ground_truth_checker(scene, exclude_target=True, margin=config.margin)
     if world.in_collision(home, include_self=True) or not full.is_valid(home):
         return done(CertFailure.HOME_IN_COLLISION)
+    if config.check_home_clearance and not home_clearance(scene).ok:
+        return done(CertFailure.HOME_CLEARANCE)
     rec["start_visibility"] = start = oracle.start_visibility(world)
     if start >= config.max_start_visibility:
         return done(CertFailure.TARGET_VISIBLE_AT_START)
@@ -243,9 +253,8 @@ def _certify(scene: SceneSpec, config: CertifyConfig, world: World, t0: float) -
     rec.update(n_valid_views=int(r40.sum()),
                view_visibility_fraction=float(g40.sum() / r40.sum()) if r40.any() else 0.0,
                best_view_visibility=best_exact_visibility(world, views, reach))
-    if obstacles:
-        n_good = int(good[:config.n_view_poses].sum())  # the severe levels' inside search is not counted
-        rec["views_removed_by_obstacles"] = 1.0 - n_good / views.n_good_without if views.n_good_without else 0.0
+    if obstacles:  # over all poses: the severe levels' inside poses are searched in full with obstacles
+        rec["views_removed_by_obstacles"] = 1.0 - int(good.sum()) / views.n_good_without if views.n_good_without else 0.0
     lap("views")
     if not good.any():
         return done(CertFailure.NO_VIEW_SEES_TARGET)
@@ -259,11 +268,9 @@ def _certify(scene: SceneSpec, config: CertifyConfig, world: World, t0: float) -
                 return done(CertFailure.OUTSIDE_VIEW_SEES_TARGET)
     goals = np.vstack([views.q_full[i] for i in np.nonzero(good)[0]])
     goals = goals[np.argsort(np.linalg.norm(goals - home, axis=1), kind="stable")][:24]
-    if obstacles:
-        n_all = int(good[:config.n_view_poses].sum()) + n_with
-        n_wo = views.n_good_without + n_without
-        if n_wo == 0 or 1.0 - n_all / n_wo < config.min_obstacle_removal:
-            return done(CertFailure.OBSTACLES_TOO_WEAK)
+    if obstacles and not _removes_enough(rec["views_removed_by_obstacles"], rec["grasps_removed_by_obstacles"],
+                                         views.n_good_without, n_without, config.min_obstacle_removal):
+        return done(CertFailure.OBSTACLES_TOO_WEAK)
     planner = PlannerConfig(time_budget=config.plan_time_s)
     path1 = None
     if not severe:  # a monotonic approach: the straight joint segment, else a planned path
@@ -313,6 +320,15 @@ def _certify(scene: SceneSpec, config: CertifyConfig, world: World, t0: float) -
     lap("physics")
     world.set_q(home)
     return done(CertFailure.LIFT_FAILED, grasp_approach_deg=grasps[0].approach_deg)
+
+
+def _removes_enough(views_removed: float, grasps_removed: float, n_views_without: int, n_grasps_without: int,
+                    min_removal: float) -> bool:
+    """Step 6, per kind: the base obstacles remove >= min_removal of the good views and, on
+    its own, >= min_removal of the valid grasps the scene has without them (each kind needs
+    some without them)."""
+    return (n_views_without > 0 and n_grasps_without > 0 and views_removed >= min_removal
+            and grasps_removed >= min_removal)
 
 
 def _yaw_deg(g: GroundTruthGrasp) -> float:

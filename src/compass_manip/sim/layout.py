@@ -47,13 +47,13 @@ def _u(rng, lo, hi) -> float:
 #: forearm 1 cm under the rail while it lifts the target (the severe grasp margin, `certify`).
 SEVERE_CLEARANCE = (0.36, 0.37)
 SEVERE_Z_BOTTOM = (0.26, 0.30)
-SEVERE_MIN_X_BACK = 0.74
-SEVERE_RAIL = (0.04, 0.055)
+SEVERE_MIN_X_BACK = 0.82
+SEVERE_RAIL = (0.055, 0.07)
 #: Severe levels' opening plane [m] from the base: as close as the home configuration allows
 #: (at x < 0.40 the face frame touches the arm at home), so the target at the back stands
 #: 0.28-0.32 m behind the opening and an eye outside it looks down behind the occluder less
 #: steeply (docs/scenes.md, "The outside-view check").
-SEVERE_X_FRONT = (0.40, 0.42)
+SEVERE_X_FRONT = (0.465, 0.48)
 
 
 def draw_cabinet(rng: np.random.Generator, severe: bool = False) -> tuple[CabinetSpec, list[Compartment]]:

@@ -47,11 +47,11 @@ OCC_WIDTH = (0.19, 0.24)
 MAX_FRONT = 0.10
 #: Farthest target centre from the base along x [m], the hand corridor's half width [m] and
 #: the target's largest offset from its compartment's centre line [m] (side eyes).
-MAX_TARGET_X = 0.72
+MAX_TARGET_X = 0.80
 CORRIDOR_HALF_WIDTH = 0.095
 #: The target's compartment reaches this far from the base [m] (not the part of a storey in
 #: front of a back-corner compartment).
-MIN_X_BACK = 0.73
+MIN_X_BACK = 0.81
 MAX_Y_OFFSET = 0.04
 
 
