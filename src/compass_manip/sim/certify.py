@@ -92,7 +92,7 @@ class CertifyConfig:
     min_view_visibility: float = 0.3
     max_start_visibility: float = 0.05
     min_obstacle_removal: float = 0.3
-    max_attempts: int = 400
+    max_attempts: int = 800
     n_q7: int = 6
     n_q7_grasp: int = 12
     max_grasp_candidates: int = 24
@@ -120,7 +120,9 @@ class Certificate:
     reference fixed-view set, fv_solvable when >= min_view_visibility; view_visibility_fraction:
     share of reachable sampled views that see enough; free_config_fraction: share of random
     configurations near home free for the sphere model; views/grasps_removed_by_obstacles:
-    share of good views/grasps the base obstacles remove (0 without obstacles);
+    share of good views/grasps the base obstacles remove (0 without obstacles), out of
+    n_good_views_without / n_grasps_without, the scene's good views (sampled and, at the
+    severe levels, inside poses) and valid grasp candidates without them (-1: not counted);
     grasp_approach_deg: approach below the horizontal of the certified grasp (None if none),
     grasp_yaw_deg: its approach direction's angle about +z from the opening's inward normal +x
     (0 = straight in, +-52 = the steepest diagonal candidate; None if none);
@@ -142,6 +144,8 @@ class Certificate:
     free_config_fraction: float = 0.0
     views_removed_by_obstacles: float = 0.0
     grasps_removed_by_obstacles: float = 0.0
+    n_good_views_without: int = -1
+    n_grasps_without: int = -1
     grasp_approach_deg: float | None = None
     grasp_yaw_deg: float | None = None
     best_outside_view_visibility: float | None = None
@@ -236,9 +240,13 @@ def _certify(scene: SceneSpec, config: CertifyConfig, world: World, t0: float) -
     grasps, n_with, n_without = _grasps(world, config, ik, obstacles, g_margin)
     if obstacles:
         rec["grasps_removed_by_obstacles"] = 1.0 - n_with / n_without if n_without else 0.0
+        rec["n_grasps_without"] = n_without
     lap("grasps")
     if not grasps:
         return done(CertFailure.NO_GRASP)
+    if obstacles and not _removes_enough(1.0, rec["grasps_removed_by_obstacles"], 1, n_without,
+                                         config.min_obstacle_removal):
+        return done(CertFailure.OBSTACLES_TOO_WEAK)  # the grasps' half of step 6, before the costly views
     if severe:
         rec["best_outside_view_visibility"] = outside_views.best_outside_visibility(
             world, config.min_view_visibility).best_visibility
@@ -254,6 +262,7 @@ def _certify(scene: SceneSpec, config: CertifyConfig, world: World, t0: float) -
                view_visibility_fraction=float(g40.sum() / r40.sum()) if r40.any() else 0.0,
                best_view_visibility=best_exact_visibility(world, views, reach))
     if obstacles:  # over all poses: the severe levels' inside poses are searched in full with obstacles
+        rec["n_good_views_without"] = views.n_good_without
         rec["views_removed_by_obstacles"] = 1.0 - int(good.sum()) / views.n_good_without if views.n_good_without else 0.0
     lap("views")
     if not good.any():
@@ -367,12 +376,37 @@ def _grasps(world: World, config: CertifyConfig, ik, obstacles: bool, margin: fl
     return found, n_with, n_without
 
 
+#: Levels 3/4: base-obstacle draws tried on one layout (cabinet and objects) before the next.
+OBSTACLE_DRAWS = 8
+
+
+def _other_obstacles_may_pass(scene: SceneSpec, cert: Certificate) -> bool:
+    """Whether the same layout with other base obstacles could pass: False when the failure
+    does not depend on the obstacles (the target seen from the start or from outside, the
+    face frame in the start shell) or when no obstacles can satisfy the per-kind gate (at
+    most one valid grasp or good view without them: removing >= 30 % would leave none)."""
+    f = cert.failure
+    if f in (CertFailure.TARGET_VISIBLE_AT_START, CertFailure.FIXED_VIEW_SEES_TARGET,
+             CertFailure.OUTSIDE_VIEW_SEES_TARGET):
+        return False
+    if f is CertFailure.HOME_CLEARANCE:
+        h = home_clearance(scene)
+        return h.cabinet_m >= h.required_cabinet_m
+    if 0 <= cert.n_grasps_without <= 1 or 0 <= cert.n_good_views_without <= 1:
+        return False
+    return True
+
+
 def certified_scene(level: int, index: int, seed: int = 0, config: CertifyConfig | None = None,
                     cache: bool = True, refresh: bool = False) -> CertifiedScene:
     """The first candidate of (seed, level, index) that passes certification.
 
     Sub-seed k uses `np.random.default_rng([seed, level, index, k])`; the accepted sub-seed
-    is stored in `SceneSpec.seed`, so `regenerate(scene.seed)` gives the same scene.
+    is stored in `SceneSpec.seed`, so `regenerate(scene.seed)` gives the same scene. At
+    levels 3/4 sub-seeds k come in groups of OBSTACLE_DRAWS that share one layout and differ
+    in the base obstacles (`regenerate`); a group is left early when its layout fails for a
+    reason no obstacle draw changes (`_other_obstacles_may_pass`). attempts: candidates
+    certified (rejections + 1).
     cache: read and write the disk cache of certified scenes (`sim.scene_cache`); False
     certifies afresh without touching the cache; refresh certifies afresh (e.g. to measure
     certification time) and writes the entry (with cache).
@@ -387,21 +421,31 @@ def certified_scene(level: int, index: int, seed: int = 0, config: CertifyConfig
     if cache and not refresh and (hit := scene_cache.load(path, Certificate, CertFailure)) is not None:
         return CertifiedScene(*hit)
     rejections = []
-    for attempt in range(config.max_attempts):
+    attempt = 0
+    while attempt < config.max_attempts:
         scene = regenerate((int(seed), level, int(index), attempt))
         cert = certify(scene, config)
         if cert.certified:
             if cache:
-                scene_cache.store(path, scene, cert, attempt + 1, rejections)
-            return CertifiedScene(scene, cert, attempt + 1, tuple(rejections))
+                scene_cache.store(path, scene, cert, len(rejections) + 1, rejections)
+            return CertifiedScene(scene, cert, len(rejections) + 1, tuple(rejections))
         rejections.append(cert.failure.name)
+        attempt += 1
+        if level >= 3 and attempt % OBSTACLE_DRAWS and not _other_obstacles_may_pass(scene, cert):
+            attempt += OBSTACLE_DRAWS - attempt % OBSTACLE_DRAWS  # the next layout
     raise RuntimeError(
         f"no certified scene for level {level}, index {index}, seed {seed} in {config.max_attempts} attempts"
     )
 
 
 def regenerate(sub_seed: tuple[int, int, int, int]) -> SceneSpec:
-    """The candidate scene of a sub-seed (seed, level, index, attempt)."""
+    """The candidate scene of a sub-seed (seed, level, index, attempt). Levels 3/4: the layout
+    from (seed, level, index, attempt // OBSTACLE_DRAWS), the base obstacles from (seed,
+    level, index, attempt, 1)."""
     seed, level, index, attempt = (int(s) for s in sub_seed)
-    scene = generate_scene(level, index, np.random.default_rng([seed, level, index, attempt]))
+    if level >= 3:
+        scene = generate_scene(level, index, np.random.default_rng([seed, level, index, attempt // OBSTACLE_DRAWS]),
+                               np.random.default_rng([seed, level, index, attempt, 1]))
+    else:
+        scene = generate_scene(level, index, np.random.default_rng([seed, level, index, attempt]))
     return replace(scene, seed=(seed, level, index, attempt))

@@ -2,8 +2,9 @@
 
 The target is a bottle 0.215-0.235 m tall with a long, thin neck (8-9 cm, radius 1.1-1.35
 cm), standing at the back of the bottom storey (`layout.draw_cabinet(rng, severe=True)`:
-0.36-0.37 m clearance, a 4-5.5 cm face-frame rail under the shelf above, the opening plane
-0.40-0.42 m from the base, so the bottle stands 0.28-0.32 m behind it). A cereal box lying on its side (4.5-5 cm
+0.36-0.37 m clearance, a 5.5-7 cm face-frame rail under the shelf above, the opening plane
+0.465-0.48 m from the base, clear of the start shell around the hand at home, so the bottle
+stands 0.27-0.34 m behind it, at most 0.80 m from the base). A cereal box lying on its side (4.5-5 cm
 deep, 19-24 cm wide) stands 1.5-2 cm in front of it, its top 6.7-7.5 cm below the bottle's top
 and above its shoulder, so from outside the opening only the neck shows above it; the rail
 and the shelf above limit how steeply an outside eye looks down behind the box: no camera
@@ -45,7 +46,8 @@ OCC_DEPTH = (0.045, 0.05)
 OCC_WIDTH = (0.19, 0.24)
 #: The occluder's front face stays within this distance [m] of the bottle's axis (the wrist).
 MAX_FRONT = 0.10
-#: Farthest target centre from the base along x [m], the hand corridor's half width [m] and
+#: Farthest target centre from the base along x [m] (the neck grasp is still reached there:
+#: certified), the hand corridor's half width [m] and
 #: the target's largest offset from its compartment's centre line [m] (side eyes).
 MAX_TARGET_X = 0.80
 CORRIDOR_HALF_WIDTH = 0.095
