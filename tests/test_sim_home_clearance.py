@@ -80,3 +80,29 @@ def test_obstacle_gate_is_per_kind_at_its_threshold(views, grasps, ok):
 def test_obstacle_gate_needs_views_and_grasps_without_the_obstacles():
     assert not _removes_enough(0.0, 0.5, 0, 4, 0.3)
     assert not _removes_enough(0.5, 0.0, 4, 0, 0.3)
+
+
+def test_obstacle_draws_share_one_layout_per_group_of_sub_seeds():
+    from compass_manip.sim.certify import OBSTACLE_DRAWS, regenerate
+    a, b = regenerate((3, 3, 1, 0)), regenerate((3, 3, 1, 1))
+    c = regenerate((3, 3, 1, OBSTACLE_DRAWS))
+    assert a.cabinet == b.cabinet and a.clutter == b.clutter and a.target == b.target
+    assert a.base_obstacles != b.base_obstacles
+    assert a.cabinet != c.cabinet
+    assert regenerate((3, 3, 1, 1)) == b  # same sub-seed, same scene
+
+
+def test_a_layout_is_left_when_no_obstacle_draw_can_pass():
+    from compass_manip.sim.certify import Certificate, _other_obstacles_may_pass
+    scene = _scene(level=3)
+    per_kind = (3,)
+    assert not _other_obstacles_may_pass(scene, Certificate(CertFailure.TARGET_VISIBLE_AT_START), per_kind)
+    assert not _other_obstacles_may_pass(scene, Certificate(CertFailure.NO_GRASP, n_grasps_without=1), per_kind)
+    assert _other_obstacles_may_pass(scene, Certificate(CertFailure.NO_GRASP, n_grasps_without=2), per_kind)
+    assert _other_obstacles_may_pass(scene, Certificate(CertFailure.NO_GRASP, n_grasps_without=1), ())
+    # home clearance: the cabinet in the shell is the layout's fault, a base obstacle is not
+    need = required_clearances()[1]
+    blocked = _scene(level=3, obstacles=(_block_above(need - 0.01),))
+    assert _other_obstacles_may_pass(blocked, Certificate(CertFailure.HOME_CLEARANCE), per_kind)
+    cab = replace(CABINET, inner=(_block_above(0.01),))
+    assert not _other_obstacles_may_pass(replace(scene, cabinet=cab), Certificate(CertFailure.HOME_CLEARANCE), per_kind)
