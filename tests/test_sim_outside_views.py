@@ -12,7 +12,7 @@ from compass_manip.sim.levels import generate_scene
 from compass_manip.sim.world import World
 
 #: a certified level-2 scene of a development seed (not the default set's seed 0)
-SUB_SEED = (7, 2, 1, 4)
+SUB_SEED = (7, 2, 1, 12)  # a certified severe candidate of the layout re-drawn by branch gsev
 
 
 def test_outside_positions_cover_the_reachable_zone_in_front_of_the_opening_only():
@@ -75,4 +75,5 @@ def test_severe_layout_ranges_and_same_seed_same_scene(level):
         assert layout.SEVERE_X_FRONT[0] <= x_open <= layout.SEVERE_X_FRONT[1]
         r_neck = s.target.parts[1].half_extents[0]
         assert severe.NECK_RADIUS[0] - 1e-12 <= r_neck <= severe.NECK_RADIUS[1] + 1e-12
-        assert 0.27 <= s.target.pos[0] - x_open <= 0.33  # deep behind the opening plane
+        assert 0.27 <= s.target.pos[0] - x_open <= 0.34  # deep behind the opening plane
+        assert s.target.pos[0] <= severe.MAX_TARGET_X + 1e-12

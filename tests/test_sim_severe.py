@@ -52,7 +52,7 @@ def test_neck_grasps_only_for_long_necks():
 
 
 def test_a_generated_severe_scene_is_hidden_from_every_reference_view_and_certified():
-    scene = regenerate((7, 2, 1, 4))  # the first candidate of (seed 7, level 2, index 1) that certifies
+    scene = regenerate((7, 2, 1, 12))  # the first candidate of (seed 7, level 2, index 1) that certifies
     world = World(scene)
     try:
         fv = oracle.fixed_view_visibilities(world)
@@ -66,3 +66,60 @@ def test_a_generated_severe_scene_is_hidden_from_every_reference_view_and_certif
     # no camera outside the opening sees enough; the certified view's camera is inside or at it
     assert c.best_outside_view_visibility is not None and c.best_outside_view_visibility < 0.3
     assert c.view_camera_outside_m is not None and c.view_camera_outside_m <= outside_views.AT_OPENING
+
+
+def _occluder_raised(scene, dz):
+    """The scene with its occluder box dz [m] taller (its bottom, footprint and yaw kept)."""
+    from dataclasses import replace
+
+    occ = next(o for o in scene.clutter if o.role == "occluder")
+    (x0, y0, z0), (x1, y1, z1) = occ.aabb()
+    taller = build_object(occ.name, occ.category, occ.colour, (x1 - x0, y1 - y0, z1 - z0 + dz), occ.mass,
+                          0.5 * (x0 + x1), 0.5 * (y0 + y1), z0, 0.0, occ.role)
+    return replace(scene, clutter=tuple(taller if o is occ else o for o in scene.clutter))
+
+
+def test_severe_grasps_keep_the_clearance_margin_and_a_closer_box_leaves_none():
+    """The certified severe grasp clears everything but the target by severe_grasp_margin
+    (sphere model: grasp, lift and the straight pre-grasp -> grasp -> lift); the same scene
+    with the box raised to leave the hand only a few millimetres still has grasps without the
+    margin, none with it."""
+    from compass_manip.motion.primitives import PrimitiveSet
+    from compass_manip.robot.model import GRIPPER_MAX_WIDTH, RobotConfig
+    from compass_manip.robot.spheres import panda_sphere_model
+    from compass_manip.sim.certify import CertifyConfig, _grasps, certified_scene
+
+    cs = certified_scene(2, 0, 0)
+    scene, c = cs.scene, cs.certificate
+    margin = CertifyConfig().severe_grasp_margin
+    assert margin == pytest.approx(0.01)
+    P = np.asarray(c.path)
+    _, i_pre, i_grasp, i_lift = c.path_marks
+    chk = oracle.ground_truth_checker(scene, exclude_target=True, margin=margin)
+    assert chk.is_valid(P[i_grasp]) and chk.is_valid(P[i_lift])
+    assert chk.edge_valid(P[i_pre], P[i_grasp]) and chk.edge_valid(P[i_grasp], P[i_lift])
+    # the hand's clearance to the box at the grasp, then the box raised to leave it 4 mm
+    sm = panda_sphere_model(RobotConfig(base_pos=scene.robot_base_pos, base_yaw=scene.robot_base_yaw),
+                            GRIPPER_MAX_WIDTH)
+    occ = next(o for o in scene.clutter if o.role == "occluder")
+    C = sm.sphere_centers(P[i_grasp][None])[0]
+    gap = float(np.min(PrimitiveSet.from_shapes(list(occ.parts)).distance(C) - sm.radii))
+    assert margin - 1e-6 <= gap < 0.03
+    raised = _occluder_raised(scene, gap - 0.004)
+    world = World(raised)
+    try:
+        ik = oracle.robot_ik(world.robot)
+        with_margin, _, _ = _grasps(world, CertifyConfig(), ik, False, margin)
+        without, _, _ = _grasps(world, CertifyConfig(), ik, False, 0.0)
+    finally:
+        world.close()
+    assert not with_margin and without
+
+
+def test_severe_grasp_margin_must_be_a_small_clearance():
+    from compass_manip.errors import CompassInputError
+    from compass_manip.sim.certify import CertifyConfig
+
+    for bad in (-0.001, 0.2):
+        with pytest.raises(CompassInputError, match="severe_grasp_margin"):
+            CertifyConfig(severe_grasp_margin=bad)

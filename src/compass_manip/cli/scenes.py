@@ -6,6 +6,7 @@ import os
 import re
 import sys
 import time
+from collections import Counter
 
 import numpy as np
 
@@ -180,3 +181,14 @@ def print_summary(rows: list[dict]) -> None:
               + " ".join(f"{m:>14.3f}" for m in means)
               + f" {np.median(appr) if appr else float('nan'):>12.0f} {np.median(yaw) if yaw else float('nan'):>13.0f}"
               + f" {np.median(times):>10.2f} {np.percentile(times, 90):>10.2f}")
+    for lv in sorted({r["level"] for r in rows}):
+        rs = [r for r in rows if r["level"] == lv]
+        rej = Counter(x for r in rs for x in r["rejections"])
+        removed = ""
+        if lv >= 3:  # per kind: the gate needs each >= the threshold on every scene
+            removed = (f"; removed by base obstacles, min / mean: views {min(r['views_removed_by_obstacles'] for r in rs):.2f}"
+                       f" / {np.mean([r['views_removed_by_obstacles'] for r in rs]):.2f},"
+                       f" grasps {min(r['grasps_removed_by_obstacles'] for r in rs):.2f}"
+                       f" / {np.mean([r['grasps_removed_by_obstacles'] for r in rs]):.2f}")
+        print(f"level {lv}: rejected candidates by reason: "
+              + (", ".join(f"{k} {n}" for k, n in rej.most_common()) or "none") + removed)

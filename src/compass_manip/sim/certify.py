@@ -3,6 +3,9 @@
 A candidate scene is accepted only when, with the simulator's ground truth (`oracle`) and the
 planner's own conservative sphere model on the ground-truth geometry:
 1. home is free of contacts (MuJoCo, self included) and valid for the sphere model;
+1b. home clearance (`home_clearance`): nothing of the scene lies in the shell around the
+   robot's spheres at home that a method's world model assumes free (its start margins,
+   read from `WorldModelConfig`, plus half its voxel diagonal);
 2. the start camera sees < `max_start_visibility` of the target;
 3. severe levels (2, 4), if `reject_fv_solvable_severe`: no pose of the reference fixed-view
    set sees >= `min_view_visibility` (always measured and recorded as `fv_solvable`);
@@ -13,12 +16,17 @@ planner's own conservative sphere model on the ground-truth geometry:
    levels); a good sampled view found later in that zone fails the scene the same way, so a
    certified severe view lies inside or at the opening;
 4. a reachable grasp exists whose pre-grasp, grasp and lift and the straight segments
-   between them are collision-free (checked before the views: it fails more often);
+   between them are collision-free (checked before the views: it fails more often); at the
+   severe levels with the sphere model grown by `severe_grasp_margin` (1 cm: a grasp that
+   keeps only millimetres to the box below it, the rail above or the back wall is one no
+   map of 1 cm voxels with a 5 mm fine map around the target can show to be free);
 5. a reachable, collision-free camera pose sees >= `min_view_visibility` of the target;
    moderate levels (1, 3): one of them is reached on a path along which the camera's
    distance to the target never grows (monotonic approach, checked with step 7);
-6. levels 3, 4: the base obstacles remove >= `min_obstacle_removal` of the good views and
-   grasps the same scene has without them (counted together);
+6. levels 3, 4: the base obstacles remove >= `min_obstacle_removal` of the good views and,
+   on its own, of the valid grasps the same scene has without them (per kind at the
+   `per_kind_obstacle_levels`, level 3; counted together at level 4; the severe levels'
+   good views counted over their inside poses too, `view_search.search_views`);
 7. home -> good view -> pre-grasp plan (`motion.planner.plan`), then pre-grasp -> grasp -> lift;
 8. physics: following pre-grasp -> grasp, closing and lifting holds the target.
 The first failing step is the certificate's `failure`; None means certified.
@@ -40,6 +48,7 @@ from .levels import check_level, generate_scene
 from .oracle import GroundTruthGrasp, find_grasp  # noqa: F401  (re-exported for older callers)
 from .physics import grasp_and_lift
 from . import outside_views, scene_cache
+from .home_clearance import home_clearance
 from .scenes import SceneSpec
 from .view_search import best_exact_visibility, sample_view_poses, search_views  # noqa: F401
 from .world import World
@@ -47,13 +56,14 @@ from .world import World
 
 class CertFailure(enum.Enum):
     HOME_IN_COLLISION = "home configuration in collision"
+    HOME_CLEARANCE = "scene geometry in the start shell a method assumes free"
     TARGET_VISIBLE_AT_START = "target visible from the start camera"
     FIXED_VIEW_SEES_TARGET = "a reference fixed view sees the target (severe level)"
     OUTSIDE_VIEW_SEES_TARGET = "a camera outside the opening sees the target (severe level)"
     NO_VIEW_SEES_TARGET = "no reachable collision-free view sees the target"
     NO_MONOTONIC_VIEW = "no good view is reached by a monotonic camera approach (moderate level)"
     NO_GRASP = "no reachable collision-free grasp"
-    OBSTACLES_TOO_WEAK = "base obstacles remove too few good views and grasps"
+    OBSTACLES_TOO_WEAK = "base obstacles remove too few good views or too few grasps"
     NO_PATH = "home -> view -> pre-grasp does not plan"
     LIFT_FAILED = "the grasp does not lift the target in physics"
 
@@ -70,7 +80,16 @@ class CertifyConfig:
     bottle behind a low wide box grasped by its neck, is hidden from the reference set in
     most candidates, so the gate rarely fires; docs/scenes.md). reject_outside_visible_severe:
     make step 3b a gate; n_severe_inside_views: poses inside or at the opening the severe
-    levels' view search adds to its n_view_poses (`view_search.inside_view_poses`)."""
+    levels' view search adds to its n_view_poses (`view_search.inside_view_poses`).
+    severe_grasp_margin [m]: at the severe levels the grasp, its pre-grasp, lift and the
+    straight segments between them (step 4) keep this clearance more than `margin` from
+    everything but the target (the hand's and arm's spheres grown by it).
+    check_home_clearance: make step 1b a gate (off only to measure what it rejects).
+    per_kind_obstacle_levels: levels whose step 6 holds views and grasps to
+    min_obstacle_removal each; the other obstacle levels count them together. Level 4 is not
+    among them by default: its layouts have 1-3 valid neck grasps without the obstacles
+    (0-1 in all 50 layouts of level-4 scene 7 of seed 0), so per kind most layouts cannot
+    pass and that scene has no certified candidate in 800 (docs/scenes.md)."""
 
     n_views: int = 40
     n_view_poses: int = 160
@@ -79,7 +98,7 @@ class CertifyConfig:
     min_view_visibility: float = 0.3
     max_start_visibility: float = 0.05
     min_obstacle_removal: float = 0.3
-    max_attempts: int = 200
+    max_attempts: int = 800
     n_q7: int = 6
     n_q7_grasp: int = 12
     max_grasp_candidates: int = 24
@@ -91,6 +110,13 @@ class CertifyConfig:
     reject_fv_solvable_severe: bool = True
     reject_outside_visible_severe: bool = True
     n_severe_inside_views: int = 60
+    severe_grasp_margin: float = 0.01
+    check_home_clearance: bool = True
+    per_kind_obstacle_levels: tuple[int, ...] = (3,)
+
+    def __post_init__(self) -> None:
+        if not 0.0 <= self.severe_grasp_margin <= 0.05:
+            raise CompassInputError(f"severe_grasp_margin {self.severe_grasp_margin!r} m is not allowed; use 0..0.05 m")
 
 
 @dataclass(frozen=True)
@@ -101,7 +127,9 @@ class Certificate:
     reference fixed-view set, fv_solvable when >= min_view_visibility; view_visibility_fraction:
     share of reachable sampled views that see enough; free_config_fraction: share of random
     configurations near home free for the sphere model; views/grasps_removed_by_obstacles:
-    share of good views/grasps the base obstacles remove (0 without obstacles);
+    share of good views/grasps the base obstacles remove (0 without obstacles), out of
+    n_good_views_without / n_grasps_without, the scene's good views (sampled and, at the
+    severe levels, inside poses) and valid grasp candidates without them (-1: not counted);
     grasp_approach_deg: approach below the horizontal of the certified grasp (None if none),
     grasp_yaw_deg: its approach direction's angle about +z from the opening's inward normal +x
     (0 = straight in, +-52 = the steepest diagonal candidate; None if none);
@@ -123,6 +151,8 @@ class Certificate:
     free_config_fraction: float = 0.0
     views_removed_by_obstacles: float = 0.0
     grasps_removed_by_obstacles: float = 0.0
+    n_good_views_without: int = -1
+    n_grasps_without: int = -1
     grasp_approach_deg: float | None = None
     grasp_yaw_deg: float | None = None
     best_outside_view_visibility: float | None = None
@@ -200,6 +230,8 @@ def _certify(scene: SceneSpec, config: CertifyConfig, world: World, t0: float) -
     no_target = oracle.ground_truth_checker(scene, exclude_target=True, margin=config.margin)
     if world.in_collision(home, include_self=True) or not full.is_valid(home):
         return done(CertFailure.HOME_IN_COLLISION)
+    if config.check_home_clearance and not home_clearance(scene).ok:
+        return done(CertFailure.HOME_CLEARANCE)
     rec["start_visibility"] = start = oracle.start_visibility(world)
     if start >= config.max_start_visibility:
         return done(CertFailure.TARGET_VISIBLE_AT_START)
@@ -211,12 +243,18 @@ def _certify(scene: SceneSpec, config: CertifyConfig, world: World, t0: float) -
     Q = np.clip(home + rng.uniform(-config.config_noise, config.config_noise, (config.n_configs, 7)), Q_MIN, Q_MAX)
     rec["free_config_fraction"] = float(np.mean(full.are_valid(Q)))
     ik = oracle.robot_ik(world.robot)
-    grasps, n_with, n_without = _grasps(world, config, ik, full, no_target, obstacles)
+    g_margin = config.margin + (config.severe_grasp_margin if severe else 0.0)
+    grasps, n_with, n_without = _grasps(world, config, ik, obstacles, g_margin)
     if obstacles:
         rec["grasps_removed_by_obstacles"] = 1.0 - n_with / n_without if n_without else 0.0
+        rec["n_grasps_without"] = n_without
     lap("grasps")
     if not grasps:
         return done(CertFailure.NO_GRASP)
+    per_kind = scene.level in config.per_kind_obstacle_levels
+    if obstacles and per_kind and not _removes_enough(1.0, rec["grasps_removed_by_obstacles"], 1, n_without,
+                                                      config.min_obstacle_removal):
+        return done(CertFailure.OBSTACLES_TOO_WEAK)  # the grasps' half of step 6, before the costly views
     if severe:
         rec["best_outside_view_visibility"] = outside_views.best_outside_visibility(
             world, config.min_view_visibility).best_visibility
@@ -231,9 +269,9 @@ def _certify(scene: SceneSpec, config: CertifyConfig, world: World, t0: float) -
     rec.update(n_valid_views=int(r40.sum()),
                view_visibility_fraction=float(g40.sum() / r40.sum()) if r40.any() else 0.0,
                best_view_visibility=best_exact_visibility(world, views, reach))
-    if obstacles:
-        n_good = int(good[:config.n_view_poses].sum())  # the severe levels' inside search is not counted
-        rec["views_removed_by_obstacles"] = 1.0 - n_good / views.n_good_without if views.n_good_without else 0.0
+    if obstacles:  # over all poses: the severe levels' inside poses are searched in full with obstacles
+        rec["n_good_views_without"] = views.n_good_without
+        rec["views_removed_by_obstacles"] = 1.0 - int(good.sum()) / views.n_good_without if views.n_good_without else 0.0
     lap("views")
     if not good.any():
         return done(CertFailure.NO_VIEW_SEES_TARGET)
@@ -247,10 +285,13 @@ def _certify(scene: SceneSpec, config: CertifyConfig, world: World, t0: float) -
                 return done(CertFailure.OUTSIDE_VIEW_SEES_TARGET)
     goals = np.vstack([views.q_full[i] for i in np.nonzero(good)[0]])
     goals = goals[np.argsort(np.linalg.norm(goals - home, axis=1), kind="stable")][:24]
-    if obstacles:
-        n_all = int(good[:config.n_view_poses].sum()) + n_with
+    if obstacles and per_kind and not _removes_enough(
+            rec["views_removed_by_obstacles"], rec["grasps_removed_by_obstacles"], views.n_good_without, n_without,
+            config.min_obstacle_removal):
+        return done(CertFailure.OBSTACLES_TOO_WEAK)
+    if obstacles and not per_kind:  # views and grasps counted together
         n_wo = views.n_good_without + n_without
-        if n_wo == 0 or 1.0 - n_all / n_wo < config.min_obstacle_removal:
+        if n_wo == 0 or 1.0 - (int(good.sum()) + n_with) / n_wo < config.min_obstacle_removal:
             return done(CertFailure.OBSTACLES_TOO_WEAK)
     planner = PlannerConfig(time_budget=config.plan_time_s)
     path1 = None
@@ -303,6 +344,15 @@ def _certify(scene: SceneSpec, config: CertifyConfig, world: World, t0: float) -
     return done(CertFailure.LIFT_FAILED, grasp_approach_deg=grasps[0].approach_deg)
 
 
+def _removes_enough(views_removed: float, grasps_removed: float, n_views_without: int, n_grasps_without: int,
+                    min_removal: float) -> bool:
+    """Step 6, per kind: the base obstacles remove >= min_removal of the good views and, on
+    its own, >= min_removal of the valid grasps the scene has without them (each kind needs
+    some without them)."""
+    return (n_views_without > 0 and n_grasps_without > 0 and views_removed >= min_removal
+            and grasps_removed >= min_removal)
+
+
 def _yaw_deg(g: GroundTruthGrasp) -> float:
     """Approach direction's angle [deg] about +z from +x (the opening's inward normal)."""
     a = g.T_world_tcp[:3, 2]
@@ -313,16 +363,19 @@ def _line(a: np.ndarray, b: np.ndarray, duration: float = 1.2) -> Trajectory:
     return Trajectory(np.array([0.0, duration]), np.stack([a, b]))
 
 
-def _grasps(world: World, config: CertifyConfig, ik, full, no_target, obstacles: bool):
-    """Valid ground-truth grasps (at most 4 kept unless counting) and, with base obstacles, the
-    number of candidates valid with and without them (all candidates are then evaluated)."""
+def _grasps(world: World, config: CertifyConfig, ik, obstacles: bool, margin: float):
+    """Valid ground-truth grasps (at most 4 kept unless counting), checked with the sphere
+    model grown by margin [m], and, with base obstacles, the number of candidates valid with
+    and without them (all candidates are then evaluated)."""
     scene = world.scene
     home = np.asarray(world.robot.q_home)
     found: list[GroundTruthGrasp] = []
     n_with = n_without = 0
+    full = oracle.ground_truth_checker(scene, margin=margin)
+    no_target = oracle.ground_truth_checker(scene, exclude_target=True, margin=margin)
     if obstacles:
-        full_wo = oracle.ground_truth_checker(scene, base_obstacles=False, margin=config.margin)
-        nt_wo = oracle.ground_truth_checker(scene, exclude_target=True, base_obstacles=False, margin=config.margin)
+        full_wo = oracle.ground_truth_checker(scene, base_obstacles=False, margin=margin)
+        nt_wo = oracle.ground_truth_checker(scene, exclude_target=True, base_obstacles=False, margin=margin)
     for T, deg in oracle.grasp_candidates(scene)[:config.max_grasp_candidates]:
         sols = oracle.grasp_solutions(ik, T, home, config.n_q7_grasp)
         g = oracle.first_valid_grasp(ik, T, sols, full, no_target, world)
@@ -336,12 +389,37 @@ def _grasps(world: World, config: CertifyConfig, ik, full, no_target, obstacles:
     return found, n_with, n_without
 
 
+#: Levels 3/4: base-obstacle draws tried on one layout (cabinet and objects) before the next.
+OBSTACLE_DRAWS = 8
+
+
+def _other_obstacles_may_pass(scene: SceneSpec, cert: Certificate, per_kind_levels: tuple[int, ...]) -> bool:
+    """Whether the same layout with other base obstacles could pass: False when the failure
+    does not depend on the obstacles (the target seen from the start or from outside, the
+    face frame in the start shell) or when no obstacles can satisfy the per-kind gate (at
+    most one valid grasp or good view without them: removing >= 30 % would leave none)."""
+    f = cert.failure
+    if f in (CertFailure.TARGET_VISIBLE_AT_START, CertFailure.FIXED_VIEW_SEES_TARGET,
+             CertFailure.OUTSIDE_VIEW_SEES_TARGET):
+        return False
+    if f is CertFailure.HOME_CLEARANCE:
+        h = home_clearance(scene)
+        return h.cabinet_m >= h.required_cabinet_m
+    if scene.level in per_kind_levels and (0 <= cert.n_grasps_without <= 1 or 0 <= cert.n_good_views_without <= 1):
+        return False
+    return True
+
+
 def certified_scene(level: int, index: int, seed: int = 0, config: CertifyConfig | None = None,
                     cache: bool = True, refresh: bool = False) -> CertifiedScene:
     """The first candidate of (seed, level, index) that passes certification.
 
     Sub-seed k uses `np.random.default_rng([seed, level, index, k])`; the accepted sub-seed
-    is stored in `SceneSpec.seed`, so `regenerate(scene.seed)` gives the same scene.
+    is stored in `SceneSpec.seed`, so `regenerate(scene.seed)` gives the same scene. At
+    levels 3/4 sub-seeds k come in groups of OBSTACLE_DRAWS that share one layout and differ
+    in the base obstacles (`regenerate`); a group is left early when its layout fails for a
+    reason no obstacle draw changes (`_other_obstacles_may_pass`). attempts: candidates
+    certified (rejections + 1).
     cache: read and write the disk cache of certified scenes (`sim.scene_cache`); False
     certifies afresh without touching the cache; refresh certifies afresh (e.g. to measure
     certification time) and writes the entry (with cache).
@@ -356,21 +434,31 @@ def certified_scene(level: int, index: int, seed: int = 0, config: CertifyConfig
     if cache and not refresh and (hit := scene_cache.load(path, Certificate, CertFailure)) is not None:
         return CertifiedScene(*hit)
     rejections = []
-    for attempt in range(config.max_attempts):
+    attempt = 0
+    while attempt < config.max_attempts:
         scene = regenerate((int(seed), level, int(index), attempt))
         cert = certify(scene, config)
         if cert.certified:
             if cache:
-                scene_cache.store(path, scene, cert, attempt + 1, rejections)
-            return CertifiedScene(scene, cert, attempt + 1, tuple(rejections))
+                scene_cache.store(path, scene, cert, len(rejections) + 1, rejections)
+            return CertifiedScene(scene, cert, len(rejections) + 1, tuple(rejections))
         rejections.append(cert.failure.name)
+        attempt += 1
+        if level >= 3 and attempt % OBSTACLE_DRAWS and not _other_obstacles_may_pass(scene, cert, config.per_kind_obstacle_levels):
+            attempt += OBSTACLE_DRAWS - attempt % OBSTACLE_DRAWS  # the next layout
     raise RuntimeError(
         f"no certified scene for level {level}, index {index}, seed {seed} in {config.max_attempts} attempts"
     )
 
 
 def regenerate(sub_seed: tuple[int, int, int, int]) -> SceneSpec:
-    """The candidate scene of a sub-seed (seed, level, index, attempt)."""
+    """The candidate scene of a sub-seed (seed, level, index, attempt). Levels 3/4: the layout
+    from (seed, level, index, attempt // OBSTACLE_DRAWS), the base obstacles from (seed,
+    level, index, attempt, 1)."""
     seed, level, index, attempt = (int(s) for s in sub_seed)
-    scene = generate_scene(level, index, np.random.default_rng([seed, level, index, attempt]))
+    if level >= 3:
+        scene = generate_scene(level, index, np.random.default_rng([seed, level, index, attempt // OBSTACLE_DRAWS]),
+                               np.random.default_rng([seed, level, index, attempt, 1]))
+    else:
+        scene = generate_scene(level, index, np.random.default_rng([seed, level, index, attempt]))
     return replace(scene, seed=(seed, level, index, attempt))

@@ -43,16 +43,22 @@ def _u(rng, lo, hi) -> float:
 #: Severe levels' bottom storey (`draw_cabinet(rng, severe=True)`): clearance [m] (room for a
 #: tall target and the hand lifting it near its top), floor height [m] (the storey stays below
 #: the start camera's view), least depth of the interior's back wall from the base [m] (the
-#: target stands deep) and the face-frame rail under the shelves [m].
-SEVERE_CLEARANCE = (0.34, 0.35)
+#: target stands deep) and the face-frame rail under the shelves [m]. Storey and rail leave the
+#: forearm 1 cm under the rail while it lifts the target (the severe grasp margin, `certify`);
+#: the rail is 1.5 cm longer than branch gsev's 4-5.5 cm: with the opening farther out, below,
+#: a shorter rail let outside eyes see 0.31-0.36 of the bottle in most candidates.
+SEVERE_CLEARANCE = (0.36, 0.37)
 SEVERE_Z_BOTTOM = (0.26, 0.30)
-SEVERE_MIN_X_BACK = 0.74
-SEVERE_RAIL = (0.05, 0.065)
-#: Severe levels' opening plane [m] from the base: as close as the home configuration allows
-#: (at x < 0.40 the face frame touches the arm at home), so the target at the back stands
-#: 0.28-0.32 m behind the opening and an eye outside it looks down behind the occluder less
-#: steeply (docs/scenes.md, "The outside-view check").
-SEVERE_X_FRONT = (0.40, 0.42)
+SEVERE_MIN_X_BACK = 0.82
+SEVERE_RAIL = (0.055, 0.07)
+#: Severe levels' opening plane [m] from the base: the face frame (its front face 2 cm before
+#: the plane) stays 6.7 cm from the fingers at home, which stand at the height of the bottom
+#: storey's top (0.61-0.65 m): the start shell a method assumes free (`home_clearance`, the
+#: certification's gate). At 0.40-0.42 m (before) the rail stood 0.5-2 cm from them in every
+#: candidate. The target at the back stands 0.30-0.34 m behind the opening, so an eye outside
+#: it looks down behind the occluder steeply enough only close to it (docs/scenes.md, "The
+#: outside-view check").
+SEVERE_X_FRONT = (0.465, 0.48)
 
 
 def draw_cabinet(rng: np.random.Generator, severe: bool = False) -> tuple[CabinetSpec, list[Compartment]]:

@@ -2,9 +2,10 @@
 
 The target is a bottle 0.215-0.235 m tall with a long, thin neck (8-9 cm, radius 1.1-1.35
 cm), standing at the back of the bottom storey (`layout.draw_cabinet(rng, severe=True)`:
-0.34-0.35 m clearance, a 5-6.5 cm face-frame rail under the shelf above, the opening plane
-0.40-0.42 m from the base, so the bottle stands 0.28-0.32 m behind it). A cereal box lying on its side (4.5-5 cm
-deep, 19-24 cm wide) stands 1.5-2 cm in front of it, its top 6.2-7 cm below the bottle's top
+0.36-0.37 m clearance, a 5.5-7 cm face-frame rail under the shelf above, the opening plane
+0.465-0.48 m from the base, clear of the start shell around the hand at home, so the bottle
+stands 0.27-0.34 m behind it, at most 0.80 m from the base). A cereal box lying on its side (4.5-5 cm
+deep, 19-24 cm wide) stands 1.5-2 cm in front of it, its top 6.7-7.5 cm below the bottle's top
 and above its shoulder, so from outside the opening only the neck shows above it; the rail
 and the shelf above limit how steeply an outside eye looks down behind the box: no camera
 more than 10 cm in front of the opening sees >= 30 % of the bottle (`outside_views`, checked
@@ -14,7 +15,12 @@ The wrist camera looks down behind the box from above it. The only grasp is hori
 the neck (`oracle.NECK_*`), over the box: in the planner's sphere model the palm reaches
 3.7 cm below the TCP and link 7 5.3 cm below it from 9.5 cm behind it, so the box's front
 face stays within 10 cm of the bottle's axis and the storey leaves >= 12.5 cm above the
-bottle's top for the hand, its camera and the lift. The corridor of the hand (above the
+bottle's top for the hand, its camera and the lift. The certification keeps that grasp, its
+pre-grasp and lift 1 cm clear of everything but the target (`CertifyConfig.
+severe_grasp_margin`); for that room the box's top is 5 mm lower, the storey 2 cm taller and
+its rail 1 cm shorter (the forearm lifts under it) and the target within 4 cm of its
+compartment's centre line (the forearm passes the face frame's stiles) than before that
+margin (docs/grasping.md, "The severe grasp's clearance"). The corridor of the hand (above the
 box) and of the wrist and forearm (in front of it) is kept free of other objects.
 """
 from __future__ import annotations
@@ -34,20 +40,21 @@ TARGET_MASS = (0.08, 0.2)
 #: Room above the bottle's top [m] the hand, its camera and the 4 cm lift need.
 HEADROOM = 0.125
 #: Occluder: its top below the bottle's top [m], gap to the bottle [m], depth and width [m].
-DROP = (0.062, 0.07)
+DROP = (0.067, 0.075)
 GAP = (0.015, 0.02)
 OCC_DEPTH = (0.045, 0.05)
 OCC_WIDTH = (0.19, 0.24)
 #: The occluder's front face stays within this distance [m] of the bottle's axis (the wrist).
 MAX_FRONT = 0.10
-#: Farthest target centre from the base along x [m], the hand corridor's half width [m] and
+#: Farthest target centre from the base along x [m] (the neck grasp is still reached there:
+#: certified), the hand corridor's half width [m] and
 #: the target's largest offset from its compartment's centre line [m] (side eyes).
-MAX_TARGET_X = 0.72
+MAX_TARGET_X = 0.80
 CORRIDOR_HALF_WIDTH = 0.095
 #: The target's compartment reaches this far from the base [m] (not the part of a storey in
 #: front of a back-corner compartment).
-MIN_X_BACK = 0.73
-MAX_Y_OFFSET = 0.06
+MIN_X_BACK = 0.81
+MAX_Y_OFFSET = 0.04
 
 
 def _u(rng: np.random.Generator, lo: float, hi: float) -> float:
