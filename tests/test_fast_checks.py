@@ -5,15 +5,7 @@ import pytest
 from compass_manip.errors import CompassInputError
 from compass_manip.geometry import is_rigid
 from compass_manip.robot.model import Q_HOME, Q_MAX, Q_MIN, check_q
-
-
-def _is_rigid_reference(T, tol=1e-6):
-    T = np.asarray(T)
-    if T.shape != (4, 4) or not np.all(np.isfinite(T)):
-        return False
-    R = T[:3, :3]
-    return bool(np.allclose(R.T @ R, np.eye(3), atol=tol) and abs(np.linalg.det(R) - 1.0) < tol
-                and np.allclose(T[3], [0, 0, 0, 1], atol=tol))
+from _rigid_reference import is_rigid_reference
 
 
 def test_is_rigid_agrees_with_allclose_near_its_tolerance():
@@ -29,7 +21,7 @@ def test_is_rigid_agrees_with_allclose_near_its_tolerance():
         noise = rng.choice([0.0, 1e-8, 3e-7, 1e-6, 3e-6, 1e-4])
         T = T + noise * rng.normal(size=(4, 4)) * (rng.random((4, 4)) < 0.5)
         for tol in (1e-6, 1e-5):
-            assert is_rigid(T, tol) == _is_rigid_reference(T, tol)
+            assert is_rigid(T, tol) == is_rigid_reference(T, tol)
             agree += is_rigid(T, tol)
     assert 0 < agree < 4000  # both verdicts occurred
     assert not is_rigid(np.full((4, 4), np.nan)) and not is_rigid(np.eye(3))

@@ -8,6 +8,7 @@ from compass_manip.robot.ik import IKConfig, IKResult, PandaIK, _ordered
 from compass_manip.robot.ik_kernels import refine_kernel
 from compass_manip.robot.model import Q_MAX, Q_MIN
 from compass_manip.exploration.viewpoints import sample_direction_in_cone, view_pose
+from _rigid_reference import is_rigid_reference
 
 
 def _sweep_reference(ik, T_world_hand, T_base_flange, q_ref, n_q7):
@@ -100,15 +101,6 @@ def test_solve_equals_the_reference_path(seed):
         assert np.array_equal(r.solutions, ref.solutions) and np.array_equal(r.rot_err, ref.rot_err)
 
 
-def _is_rigid_reference(T, tol):
-    T = np.asarray(T)
-    if T.shape != (4, 4) or not np.all(np.isfinite(T)):
-        return False
-    R = T[:3, :3]
-    return bool(np.allclose(R.T @ R, np.eye(3), atol=tol) and abs(np.linalg.det(R) - 1.0) < tol
-                and np.allclose(T[3], [0, 0, 0, 1], atol=tol))
-
-
 def test_compiled_rigidity_test_agrees_with_numpy():
     rng = np.random.default_rng(2)
     for k in range(300):
@@ -126,5 +118,5 @@ def test_compiled_rigidity_test_agrees_with_numpy():
             T[3, rng.integers(4)] += 10 ** rng.uniform(-8, -3)
         elif kind == 4:
             T[rng.integers(4), rng.integers(4)] = np.nan
-        assert is_rigid(T, 1e-5) == _is_rigid_reference(T, 1e-5), (k, kind)
+        assert is_rigid(T, 1e-5) == is_rigid_reference(T, 1e-5), (k, kind)
     assert not is_rigid(np.eye(3)) and is_rigid(np.eye(4, dtype=np.float32)) and not is_rigid(np.full((4, 4), "a"))

@@ -31,10 +31,9 @@ from ..grasp.hypotheses import grasp_hypotheses, needed_voxels, strict_unsafe_ma
 from ..grasp.select import base_volume
 from ..grasp.target import build_target_model
 from ..mapping.occupancy import OccupancyMap
-from ..motion.planner import plan
 from ..robot.ik import PandaIK
 from ..robot.model import Q_MAX, Q_MIN
-from .inspect import InspectConfig, InspectPlan, frustum_mask, seen_counts
+from .inspect import InspectConfig, InspectPlan, frustum_mask, plan_to_best, seen_counts
 
 
 def weighted_voxels(occ: OccupancyMap, needed: list[np.ndarray], weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -170,13 +169,7 @@ class GraspInspector:
         if len(Q) == 0:
             return InspectPlan(None, 0, 0, time.perf_counter() - t0)
         gain = weighted_gain(occ, wm.kin.T_world_cam_batch(Q), self.K, vox, w, config, rng)
-        order = np.argsort(-gain, kind="stable")
         gain = 1000.0 * gain / w.sum()  # per mille of the hypotheses' weight seen
-        order = order[gain[order] >= 1000.0 * config.min_fraction][: config.n_goals]
         self.last.update(n_valid=len(Q), n_ik_views=n_ik, best_gain=round(float(gain.max()), 1))
-        if len(order) == 0:
-            return InspectPlan(None, 0, len(Q), time.perf_counter() - t0, planned=False)
-        res = plan(q, Q[order], wm.checker, config.planner, rng)
-        if not res.success:
-            return InspectPlan(None, 0, len(Q), time.perf_counter() - t0)
-        return InspectPlan(res.path, int(round(gain[order[res.goal_index]])), len(Q), time.perf_counter() - t0)
+        return plan_to_best(q, Q, gain, 1000.0 * config.min_fraction, config.n_goals, wm.checker, config.planner,
+                            rng, t0)

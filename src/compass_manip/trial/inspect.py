@@ -193,12 +193,21 @@ def plan_inspect_view(checker, kin, occ: OccupancyMap, K: np.ndarray, points: np
         seen = seen_counts(occ, T[top], np.asarray(K, dtype=np.float64), sub, config.max_range)
         gain = np.zeros_like(gain)
         gain[top] = np.round(seen * len(target) / len(sub)).astype(np.int64)
-    order = np.argsort(-gain, kind="stable")
-    order = order[gain[order] >= config.min_gain][: config.n_goals]
+    return plan_to_best(q_current, Q, gain, config.min_gain, config.n_goals, checker, config.planner, rng, t0)
+
+
+def plan_to_best(q: np.ndarray, Q: np.ndarray, score: np.ndarray, min_score: float, n_goals: int, checker,
+                 planner: PlannerConfig, rng: np.random.Generator, t0: float) -> InspectPlan:
+    """Plan from q (7,) [rad] to any of the n_goals best-scored views among Q (n,7) [rad]
+    that score at least min_score (an `InspectPlan` with planned=False when none does, path
+    None when no path is found; gain the reached view's score rounded, plan_time_s since
+    t0, a `time.perf_counter()` value)."""
+    order = np.argsort(-score, kind="stable")
+    order = order[score[order] >= min_score][:n_goals]
     if len(order) == 0:
         return InspectPlan(None, 0, len(Q), time.perf_counter() - t0, planned=False)
-    res = plan(q_current, Q[order], checker, config.planner, rng)
+    res = plan(q, Q[order], checker, planner, rng)
     if not res.success:
         return InspectPlan(None, 0, len(Q), time.perf_counter() - t0)
-    return InspectPlan(res.path, int(gain[order[res.goal_index]]), len(Q), time.perf_counter() - t0)
+    return InspectPlan(res.path, int(round(score[order[res.goal_index]])), len(Q), time.perf_counter() - t0)
 

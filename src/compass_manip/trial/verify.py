@@ -30,11 +30,11 @@ from ..exploration.world_model import mark_spheres
 from ..grasp.candidates import propose_in_cone
 from ..grasp.carve import grasp_unsafe
 from ..mapping.occupancy import OccupancyMap, VoxelState
-from ..motion.planner import PlannerConfig, plan
+from ..motion.planner import PlannerConfig
 from ..motion.timing import densify
 from ..robot.ik import PandaIK
 from ..robot.model import Q_MAX, Q_MIN
-from .inspect import InspectPlan, frustum_mask, seen_counts
+from .inspect import InspectPlan, frustum_mask, plan_to_best, seen_counts
 
 
 @dataclass(frozen=True)
@@ -218,11 +218,4 @@ class LookPlanner:
         sub = centres[rng.choice(len(centres), min(len(centres), cfg.n_rays), replace=False)]
         seen = np.zeros_like(gain)
         seen[top] = seen_counts(occ, T[top], self.K, sub, cfg.max_range) * len(centres) / len(sub)
-        order = np.argsort(-seen, kind="stable")
-        order = order[seen[order] >= cfg.min_seen][: cfg.n_goals]
-        if len(order) == 0:
-            return InspectPlan(None, 0, len(Q), time.perf_counter() - t0, planned=False)
-        res = plan(q, Q[order], wm.checker, cfg.planner, rng)
-        if not res.success:
-            return InspectPlan(None, 0, len(Q), time.perf_counter() - t0)
-        return InspectPlan(res.path, int(round(seen[order[res.goal_index]])), len(Q), time.perf_counter() - t0)
+        return plan_to_best(q, Q, seen, cfg.min_seen, cfg.n_goals, wm.checker, cfg.planner, rng, t0)
