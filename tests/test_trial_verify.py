@@ -13,7 +13,7 @@ from compass_manip.robot.spheres import panda_sphere_model
 from compass_manip.trial import grasp_stage
 from compass_manip.trial.config import GraspTrialConfig
 from compass_manip.trial.result import TrialFailure
-from compass_manip.trial.verify import VerifyConfig, manoeuvre, swept_mask, swept_occupied, swept_unknown
+from compass_manip.trial.verify import LookOutcome, VerifyConfig, manoeuvre, swept_mask, swept_occupied, swept_unknown
 
 ROBOT = RobotConfig()
 SPHERES = panda_sphere_model(ROBOT)
@@ -117,11 +117,11 @@ def stage(monkeypatch):
 def test_the_stage_refuses_a_manoeuvre_through_unknown_space_when_the_budget_is_spent(stage):
     calls = []
     r = stage.run(GraspTrialConfig(near_body_free=False, verify=VerifyConfig(max_views=0)),
-                  lambda p, count=True: calls.append(p) or "moved")
+                  lambda p, count=True: calls.append(p) or LookOutcome.MOVED)
     assert r.failure is TrialFailure.GRASP_UNVERIFIED and r.outcome is None and not stage.ran and not calls
     assert r.look_log[0]["unknown_grasp"] > 0
     r = stage.run(GraspTrialConfig(near_body_free=False, verify=VerifyConfig(max_views=2)),
-                  lambda p, count=True: "none")  # no view could be reached
+                  lambda p, count=True: LookOutcome.NONE)  # no view could be reached
     assert r.failure is TrialFailure.GRASP_UNVERIFIED and not stage.ran
 
 
@@ -131,7 +131,7 @@ def test_the_stage_executes_once_a_look_has_seen_the_swept_space_free(stage):
     def look(p, count=True):  # the view (counted) and the way back (not counted); the view sees all free
         calls.append(count)
         stage.occ.state[:] = VoxelState.FREE
-        return "moved"
+        return LookOutcome.MOVED
     r = stage.run(GraspTrialConfig(near_body_free=False, verify=VerifyConfig(max_views=3)), look)
     assert r.failure is None and len(stage.ran) == 1 and r.n_looks == 1 and calls == [True, False]
     assert r.duration_s == pytest.approx(0.1 + 0.1 + 1.0)  # the (strict) selection, the view's plan, the grasp
@@ -146,12 +146,12 @@ def test_trusting_the_space_outside_the_confined_space_needs_no_look_there_only(
     from compass_manip.exploration.world_model import WorldModelConfig
     config = GraspTrialConfig(near_body_free=False, verify=VerifyConfig(max_views=0, trust_outside_space=True))
     rules = WorldModelConfig(near_base_box=((-0.5, -0.5, 0.0), (0.5, 0.5, 1.0)))  # COMPASS's box: ignored here
-    far = stage.run(config, lambda p, count=True: "none", _task((2.0, 2.0, 0.3), (2.5, 2.5, 0.8)), rules)
+    far = stage.run(config, lambda p, count=True: LookOutcome.NONE, _task((2.0, 2.0, 0.3), (2.5, 2.5, 0.8)), rules)
     assert far.failure is None and len(stage.ran) == 1  # the whole arm is outside the confined space
-    around = stage.run(config, lambda p, count=True: "none", _task((-1.0, -1.0, 0.0), (1.0, 1.0, 1.2)), rules)
+    around = stage.run(config, lambda p, count=True: LookOutcome.NONE, _task((-1.0, -1.0, 0.0), (1.0, 1.0, 1.2)), rules)
     assert around.failure is TrialFailure.GRASP_UNVERIFIED and len(stage.ran) == 1  # inside it: unknown is unknown
     off = stage.run(GraspTrialConfig(near_body_free=False, verify=VerifyConfig(max_views=0)),
-                    lambda p, count=True: "none", _task((2.0, 2.0, 0.3), (2.5, 2.5, 0.8)), rules)
+                    lambda p, count=True: LookOutcome.NONE, _task((2.0, 2.0, 0.3), (2.5, 2.5, 0.8)), rules)
     assert off.failure is TrialFailure.GRASP_UNVERIFIED
 
 

@@ -37,7 +37,7 @@ from ..sim.grasp_exec import ExecFailure, GraspOutcome, execute_grasp
 from ..sim.grasp_only import near_body_unknown
 from .result import TrialFailure
 from .inspect import InspectPlan
-from .verify import RecordingProposer, manoeuvre, swept_occupied, swept_unknown
+from .verify import LookOutcome, RecordingProposer, manoeuvre, swept_occupied, swept_unknown
 
 _SELECT_FAILURE = {
     GraspFailure.NO_CANDIDATE: TrialFailure.GRASP_NO_CANDIDATE,
@@ -139,7 +139,7 @@ def run_grasp_stage(world, occupancy, detection, task, q_current: np.ndarray, mo
     unknown space its validity checker takes as free (outside the confined space, away from
     seen obstacles) is free for the grasp too. With `config.verify` (`trial.verify`, look
     before moving): looker, a `trial.verify.LookPlanner`, and look, the machine's
-    `look(InspectPlan) -> "moved" | "none" | "collision"` (it executes the view, feeds its
+    `look(InspectPlan) -> trial.verify.LookOutcome` (it executes the view, feeds its
     frames to the maps and advances the clock; `moved` grows by the view's path)."""
     if rng is None:
         raise CompassInputError("run_grasp_stage needs an explicit np.random.Generator (rng)")
@@ -212,13 +212,13 @@ def run_grasp_stage(world, occupancy, detection, task, q_current: np.ndarray, mo
             p = looker(q, occupancy, occupancy.voxel_to_world(unknown), moved)
             charge += p.plan_time_s if planning_charge_s is None else planning_charge_s
             done = look(p)
-            log[-1].update(view=done, gain=p.gain, n_valid=p.n_valid)
-            if done == "moved":  # back along the way it came (its own space): the manoeuvre starts here
+            log[-1].update(view=done.value, gain=p.gain, n_valid=p.n_valid)
+            if done is LookOutcome.MOVED:  # back along the way it came (its own space): the manoeuvre starts here
                 n_views += 1
                 done = look(InspectPlan(np.asarray(p.path)[::-1].copy(), 0, 0, 0.0), count=False)
-            if done == "collision":
+            if done is LookOutcome.COLLISION:
                 return GraspStageResult(TrialFailure.COLLISION, charge, sel, None, q, 0, n_views, tuple(log))
-            if done != "moved":  # no view sees them: refuse rather than move through the unknown
+            if done is not LookOutcome.MOVED:  # no view sees them: refuse rather than move through the unknown
                 return GraspStageResult(TrialFailure.GRASP_UNVERIFIED, charge, sel, None, q, 0, n_views, tuple(log))
         if not blocked and len(unknown) == 0:
             break

@@ -27,6 +27,7 @@ from ..motion.timing import time_parameterize
 from ..sim.executor import ExecutorConfig, execute
 from .observer import TrialObserver
 from .result import TrialFailure
+from .verify import LookOutcome
 
 _STOP_TO_FAILURE = {
     StopReason.NO_REACHABLE_VIEW: TrialFailure.NO_REACHABLE_VIEW,
@@ -189,22 +190,21 @@ class TrialMachine:
             self.n_inspected += 1
         return None
 
-    def _look(self, p, ex_cfg, render_seg, count: bool = True) -> str:
+    def _look(self, p, ex_cfg, render_seg, count: bool = True) -> LookOutcome:
         """A look view of the GRASP state (`trial.verify`), executed like an INSPECT view: its
         plan counts in MPSR, its motion advances the clock and its frames feed the maps (its
-        planning charge is the grasp stage's). Returns "moved", "none" (no plan, no path, or
-        the time limit reached) or "collision". count=False: a motion that was not planned (the
+        planning charge is the grasp stage's). Returns a `trial.verify.LookOutcome`. count=False: a motion that was not planned (the
         way back along the view's path) is not counted in MPSR."""
         if self.t >= self.config.time_limit_s or not p.planned:
-            return "none"
+            return LookOutcome.NONE
         self.metrics.plans_attempted += int(count)
         if p.path is None:
-            return "none"
+            return LookOutcome.NONE
         self.metrics.plans_succeeded += int(count)
         if self._move(p.path, ex_cfg, render_seg):
-            return "collision"
+            return LookOutcome.COLLISION
         self.n_looked += int(count)
-        return "moved"
+        return LookOutcome.MOVED
 
     def _move(self, path, ex_cfg, render_seg) -> bool:
         """Execute a joint path (n,7) [rad] on the simulated timeline: its frames feed the

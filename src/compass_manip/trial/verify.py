@@ -19,6 +19,7 @@ budget (`max_views`, `max_rounds`) is spent with voxels still unknown, the grasp
 """
 from __future__ import annotations
 
+import enum
 import time
 from dataclasses import dataclass
 
@@ -35,6 +36,15 @@ from ..motion.timing import densify
 from ..robot.ik import PandaIK
 from ..robot.model import Q_MAX, Q_MIN
 from .inspect import InspectPlan, frustum_mask, plan_to_best, seen_counts
+
+
+class LookOutcome(enum.Enum):
+    """What executing a look view did: the arm moved there; nothing moved (no view planned,
+    no path, or the time limit reached); the motion touched the scene."""
+
+    MOVED = "moved"
+    NONE = "none"
+    COLLISION = "collision"
 
 
 @dataclass(frozen=True)
