@@ -252,8 +252,8 @@ def _certify(scene: SceneSpec, config: CertifyConfig, world: World, t0: float) -
     if not grasps:
         return done(CertFailure.NO_GRASP)
     per_kind = scene.level in config.per_kind_obstacle_levels
-    if obstacles and per_kind and not _removes_enough(1.0, rec["grasps_removed_by_obstacles"], 1, n_without,
-                                                      config.min_obstacle_removal):
+    if obstacles and per_kind and not _kind_removed(rec["grasps_removed_by_obstacles"], n_without,
+                                                    config.min_obstacle_removal):
         return done(CertFailure.OBSTACLES_TOO_WEAK)  # the grasps' half of step 6, before the costly views
     if severe:
         rec["best_outside_view_visibility"] = outside_views.best_outside_visibility(
@@ -344,13 +344,17 @@ def _certify(scene: SceneSpec, config: CertifyConfig, world: World, t0: float) -
     return done(CertFailure.LIFT_FAILED, grasp_approach_deg=grasps[0].approach_deg)
 
 
+def _kind_removed(removed: float, n_without: int, min_removal: float) -> bool:
+    """Step 6 for one kind (good views or valid grasps): the scene has some without the base
+    obstacles and the obstacles remove >= min_removal of them."""
+    return n_without > 0 and removed >= min_removal
+
+
 def _removes_enough(views_removed: float, grasps_removed: float, n_views_without: int, n_grasps_without: int,
                     min_removal: float) -> bool:
-    """Step 6, per kind: the base obstacles remove >= min_removal of the good views and, on
-    its own, >= min_removal of the valid grasps the scene has without them (each kind needs
-    some without them)."""
-    return (n_views_without > 0 and n_grasps_without > 0 and views_removed >= min_removal
-            and grasps_removed >= min_removal)
+    """Step 6, per kind: `_kind_removed` for the good views and, on its own, for the grasps."""
+    return (_kind_removed(views_removed, n_views_without, min_removal)
+            and _kind_removed(grasps_removed, n_grasps_without, min_removal))
 
 
 def _yaw_deg(g: GroundTruthGrasp) -> float:

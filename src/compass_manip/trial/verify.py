@@ -29,7 +29,7 @@ from ..errors import CompassInputError
 from ..exploration.viewpoints import sample_direction_in_cone, view_pose
 from ..exploration.world_model import mark_spheres
 from ..grasp.candidates import propose_in_cone
-from ..grasp.carve import grasp_unsafe
+from ..grasp.carve import target_carve
 from ..mapping.occupancy import OccupancyMap, VoxelState
 from ..motion.planner import PlannerConfig
 from ..motion.timing import densify
@@ -133,7 +133,7 @@ def swept_unknown(occ: OccupancyMap, spheres, Q: np.ndarray, inflate: float, own
         raise CompassInputError(f"own has shape {own.shape}; the map's shape {occ.shape} is required")
     unknown = (occ.state == VoxelState.UNKNOWN) & ~own
     if target is not None:
-        unknown &= grasp_unsafe(occ, target, clearance)
+        unknown &= ~target_carve(occ, target, clearance)
     return np.argwhere(swept_mask(occ, spheres, Q, inflate) & unknown)
 
 
@@ -141,7 +141,7 @@ def swept_occupied(occ: OccupancyMap, spheres, Q: np.ndarray, target, clearance:
     """Voxels seen occupied that the arm's spheres (grown by inflate [m]) cover along Q (m, 7)
     [rad], the target's own (its carve within clearance [m]) left out: a manoeuvre chosen
     through unknown space that a look showed blocked."""
-    occupied = (occ.state == VoxelState.OCCUPIED) & grasp_unsafe(occ, target, clearance)
+    occupied = (occ.state == VoxelState.OCCUPIED) & ~target_carve(occ, target, clearance)
     return int(np.count_nonzero(swept_mask(occ, spheres, Q, inflate) & occupied))
 
 
