@@ -13,7 +13,8 @@ from compass_manip.robot.spheres import panda_sphere_model
 from compass_manip.trial import grasp_stage
 from compass_manip.trial.config import GraspTrialConfig
 from compass_manip.trial.result import TrialFailure
-from compass_manip.trial.verify import LookOutcome, VerifyConfig, manoeuvre, swept_mask, swept_occupied, swept_unknown
+from compass_manip.trial.verify import (LookOutcome, VerifyConfig, manoeuvre, swept_mask, swept_occupied, swept_unknown,
+                                       transfer_path)
 
 ROBOT = RobotConfig()
 SPHERES = panda_sphere_model(ROBOT)
@@ -176,3 +177,41 @@ def test_same_seed_gives_an_identical_trial_with_look_before_moving():
     for k in ("wall_s", "planning_ms_median", "planning_ms_p90"):  # measured compute times, not the trial
         a.pop(k), b.pop(k)
     assert a == b and a["grasp_looks"] is not None  # GRASP was entered with the look loop
+
+
+def _target_at_mid_path():
+    """A small target model around the hand's sphere centres halfway along _path()."""
+    q_mid = _path().mean(axis=0)
+    c = SPHERES.sphere_centers(q_mid[None])[0][-3:]
+    pts = np.vstack([c + d for d in 0.01 * np.eye(3)] + [c])
+    return SimpleNamespace(points=pts, axes=np.eye(3), bottom_z=float(pts[:, 2].min()) - 0.1)
+
+
+def test_the_transfer_is_checked_without_the_targets_carve():
+    occ = _map()
+    target = _target_at_mid_path()
+    own = np.zeros(occ.shape, bool)
+    sel = SimpleNamespace(path=_path(), q_pregrasp=_path()[-1])
+    Q = transfer_path(sel, 0.02)
+    assert np.allclose(Q[0], Q_HOME) and np.allclose(Q[-1], sel.q_pregrasp)
+    assert np.max(np.abs(np.diff(Q, axis=0))) <= 0.02 + 1e-12
+    all_unknown = len(swept_unknown(occ, SPHERES, Q, 0.009, own))
+    carved = len(swept_unknown(occ, SPHERES, Q, 0.009, own, target, 0.055))
+    assert carved < all_unknown  # the carve would have exempted voxels the transfer sweeps
+
+
+def test_the_stage_looks_at_a_transfer_through_the_targets_unseen_surroundings(stage, monkeypatch):
+    target = _target_at_mid_path()
+    monkeypatch.setattr(grasp_stage, "build_target_model", lambda *a, **k: target)
+    from compass_manip.grasp.carve import target_carve
+    carve = target_carve(stage.occ, target, 0.055)
+    stage.occ.state[~carve] = VoxelState.FREE  # everything seen free but the unseen space around the target
+    calls = []
+    r = stage.run(GraspTrialConfig(near_body_free=False, verify=VerifyConfig(max_views=0)),
+                  lambda p, count=True: calls.append(p) or LookOutcome.MOVED)
+    assert r.failure is TrialFailure.GRASP_UNVERIFIED and not stage.ran
+    assert r.look_log[0]["unknown_grasp"] == 0 and r.look_log[0]["unknown_all"] > 0
+    stage.occ.state[:] = VoxelState.FREE  # seen: the transfer may go
+    r = stage.run(GraspTrialConfig(near_body_free=False, verify=VerifyConfig(max_views=0)),
+                  lambda p, count=True: LookOutcome.NONE)
+    assert r.failure is None and len(stage.ran) == 1

@@ -37,7 +37,7 @@ from ..sim.grasp_exec import ExecFailure, GraspOutcome, execute_grasp
 from ..sim.grasp_only import near_body_unknown
 from .result import TrialFailure
 from .inspect import InspectPlan
-from .verify import LookOutcome, RecordingProposer, manoeuvre, swept_occupied, swept_unknown
+from .verify import LookOutcome, RecordingProposer, manoeuvre, swept_occupied, swept_unknown, transfer_path
 
 _SELECT_FAILURE = {
     GraspFailure.NO_CANDIDATE: TrialFailure.GRASP_NO_CANDIDATE,
@@ -202,8 +202,7 @@ def run_grasp_stage(world, occupancy, detection, task, q_current: np.ndarray, mo
                 log[-1]["strict_path"] = strict_path is not None
                 if strict_path is not None:
                     sel = replace(sel, path=strict_path)
-                unknown = swept_unknown(occupancy, spheres, manoeuvre(sel, verify.step), verify.inflate, own, target,
-                                        config.select.clearance)
+                unknown = swept_unknown(occupancy, spheres, transfer_path(sel, verify.step), verify.inflate, own)
                 log[-1]["unknown_all"] = int(len(unknown))
                 if len(unknown) == 0:
                     break

@@ -7,7 +7,8 @@ transfer path, pre-grasp -> grasp, grasp -> lift, every sphere of the planner's 
 `VerifyConfig.inflate` along the joint paths densified to `step` [rad] - that are still
 unknown: not seen free, not the robot's own space (its executed way, its base column, its
 current posture), not the target's carve (the space around the target the fingers must
-enter, `grasp.carve`). While some are, `LookPlanner` plans a view of them (camera poses
+enter, `grasp.carve`, exempt for the approach, close and lift only: the transfer to the
+pre-grasp must see it, `transfer_path`). While some are, `LookPlanner` plans a view of them (camera poses
 looking at their centroid, and at the centroids of their nearest-neighbour groups, from
 `view_distance` [m], solved by camera IK, plus configurations next to the current one; kept
 when valid for the method's own checker, scored by the listed voxels each sees without a
@@ -111,6 +112,16 @@ def manoeuvre(selection, step: float, transfer: bool = True) -> np.ndarray:
     path = np.asarray(selection.path, dtype=np.float64).reshape(-1, 7) if transfer else np.zeros((0, 7))
     full = np.vstack([path, selection.q_pregrasp, selection.q_grasp, selection.q_lift])
     return densify(full, step)
+
+
+def transfer_path(selection, step: float) -> np.ndarray:
+    """(m, 7) [rad]: the selection's transfer path from q_current to its pre-grasp, densified
+    so no joint moves more than step [rad]. Checked without the target's carve: the fingers
+    must enter the unseen space next to the target only on the approach, close and lift, and
+    a transfer that passes through it (a neighbour's hidden side within the carve's reach) has
+    to see it free first."""
+    path = np.asarray(selection.path, dtype=np.float64).reshape(-1, 7)
+    return densify(np.vstack([path, selection.q_pregrasp]), step)
 
 
 def swept_mask(occ: OccupancyMap, spheres, Q: np.ndarray, inflate: float) -> np.ndarray:
