@@ -215,3 +215,20 @@ def test_the_stage_looks_at_a_transfer_through_the_targets_unseen_surroundings(s
     r = stage.run(GraspTrialConfig(near_body_free=False, verify=VerifyConfig(max_views=0)),
                   lambda p, count=True: LookOutcome.NONE)
     assert r.failure is None and len(stage.ran) == 1
+
+
+def test_a_look_that_sees_none_of_its_voxels_sends_the_stage_back_to_choose_without_them(stage, monkeypatch):
+    selections = []
+    orig = grasp_stage.select_grasp
+    monkeypatch.setattr(grasp_stage, "select_grasp", lambda *a, **k: selections.append(k["extra_safe"].copy())
+                        or orig(*a, **k))
+    calls = []
+    config = GraspTrialConfig(near_body_free=True, verify=VerifyConfig(max_views=5, max_rounds=2, strict_first=False))
+    r = stage.run(config,
+                  lambda p, count=True: calls.append(count) or LookOutcome.MOVED)  # moves, sees nothing
+    assert r.failure is TrialFailure.GRASP_UNVERIFIED and not stage.ran
+    assert r.n_looks == 2 and calls == [True, False, True, False]  # one look per choice, not five in a row
+    unseen = [e for e in r.look_log if "unseen" in e]
+    assert len(unseen) == 2 and unseen[0]["round"] == 0 and unseen[0]["unseen"] == r.look_log[0]["unknown_grasp"]
+    # the second choice no longer takes the voxels the look missed as free (near-body space assumed before)
+    assert len(selections) == 2 and np.count_nonzero(selections[1]) < np.count_nonzero(selections[0])

@@ -157,9 +157,10 @@ def run_grasp_stage(world, occupancy, detection, task, q_current: np.ndarray, mo
     def model():
         return build_target_model(points, detection.T_world_cam[:3, 3], task.target, occupancy, config.target)
 
+    stuck = np.zeros(occupancy.shape, bool)  # voxels a look aimed at and did not see: no longer assumed free
     for round_ in range(1 if verify is None else verify.max_rounds):
         target, own = model(), own_space(occupancy, spheres, moved, config)
-        extra = own | assumed_unknown_free(occupancy, config, spheres, q_home, task, method_rules)
+        extra = own | (assumed_unknown_free(occupancy, config, spheres, q_home, task, method_rules) & ~stuck)
         fine, t_fine = None, 0.0
         if grasp_map is not None and config.fine_map and grasp_map.frames:
             t0 = time.perf_counter()
@@ -183,6 +184,7 @@ def run_grasp_stage(world, occupancy, detection, task, q_current: np.ndarray, mo
             break
         chosen = proposer.chosen(sel)
         Q_grasp, blocked0, strict_path = manoeuvre(sel, verify.step, transfer=False), None, None
+        aimed, unseen = None, False
         while True:  # the grasp's own motions first, then a transfer through space seen free
             own = own_space(occupancy, spheres, moved, config) | base_volume_mask(spheres, occupancy)
             mark_configs(own, occupancy, spheres, q[None], config.select.robot_clearance)
@@ -197,6 +199,10 @@ def run_grasp_stage(world, occupancy, detection, task, q_current: np.ndarray, mo
             log.append({"round": round_, "unknown_grasp": int(len(unknown)), "occupied": int(blocked)})
             if blocked:
                 break
+            if aimed is not None and np.all(occupancy.state[tuple(aimed.T)] == VoxelState.UNKNOWN):
+                stuck[tuple(aimed.T)] = unseen = True  # the last look saw none of them: choose again without them
+                log[-1]["unseen"] = int(len(aimed))
+                break
             if len(unknown) == 0:
                 strict_path = strict_transfer(occupancy, target, spheres, q, sel.q_pregrasp, own, config, fine, rng)
                 log[-1]["strict_path"] = strict_path is not None
@@ -208,6 +214,7 @@ def run_grasp_stage(world, occupancy, detection, task, q_current: np.ndarray, mo
                     break
             if n_views >= verify.max_views:
                 break
+            aimed = unknown
             p = looker(q, occupancy, occupancy.voxel_to_world(unknown), moved)
             charge += p.plan_time_s if planning_charge_s is None else planning_charge_s
             done = look(p)
@@ -221,7 +228,7 @@ def run_grasp_stage(world, occupancy, detection, task, q_current: np.ndarray, mo
                 return GraspStageResult(TrialFailure.GRASP_UNVERIFIED, charge, sel, None, q, 0, n_views, tuple(log))
         if not blocked and len(unknown) == 0:
             break
-        if not blocked or round_ == verify.max_rounds - 1:  # the look budget is spent
+        if not (blocked or unseen) or round_ == verify.max_rounds - 1:  # the look budget is spent
             return GraspStageResult(TrialFailure.GRASP_UNVERIFIED, charge, sel, None, q, 0, n_views, tuple(log))
     outcome = execute_grasp(world, sel, q, config.execute)
     failure = None if outcome.failure is None else _EXEC_FAILURE[outcome.failure]

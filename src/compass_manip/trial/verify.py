@@ -14,7 +14,9 @@ looking at their centroid, and at the centroids of their nearest-neighbour group
 when valid for the method's own checker, scored by the listed voxels each sees without a
 voxel seen occupied in the way) and the machine moves there, its frames integrated as in
 INSPECT; then the grasp is selected again on the updated map (the previous choice pinned
-first, so the same grasp comes back unless a voxel it needs was seen occupied). When the
+first, so the same grasp comes back unless a voxel it needs was seen occupied). A look that
+saw none of the voxels it aimed at (hidden behind unseen space) is not repeated: the grasp is
+selected again with those voxels no longer assumed free (near-body / outside rules). When the
 budget (`max_views`, `max_rounds`) is spent with voxels still unknown, the grasp is refused
 (`TrialFailure.GRASP_UNVERIFIED`). Nothing here reads ground truth.
 """
