@@ -11,6 +11,7 @@ from compass_manip.exploration.registry import METHODS, available_methods, make_
 from compass_manip.errors import CompassInputError
 from compass_manip.mapping.occupancy import VoxelState
 from compass_manip.robot.ik import PandaIK
+from compass_manip.robot.model import RobotConfig
 from compass_manip.sim.certify import certified_scene
 from compass_manip.sim.world import World
 
@@ -234,3 +235,25 @@ def test_without_the_near_field_scan_a_stuck_decision_still_backtracks(setup):
     # nothing left to go back along: the stop stands
     m.executed(back.path)
     assert m._rescan(stuck).stop is StopReason.NO_REACHABLE_VIEW
+
+
+def test_the_grasp_maps_start_shell_is_the_world_models_rule(setup):
+    """Given the Task, the grasp map's own space at the start is `start_shell` on its own grid:
+    the full shell outside the confined space's box, only the body margin inside it."""
+    from types import SimpleNamespace
+
+    from compass_manip.exploration.world_model import mark_configs, space_box_mask, start_shell
+    from compass_manip.trial.grasp_map import GraspMap
+
+    scene, _, q0, _ = setup
+    task = scene.task()
+    world = SimpleNamespace(q=q0)
+    gm, loose = GraspMap(RobotConfig(), task=task), GraspMap(RobotConfig())
+    gm.start(world, None)
+    loose.start(world, None)
+    box = space_box_mask(gm.occ, task, task.space.wall_thickness + gm.occ.resolution)
+    body = np.zeros(gm.occ.shape, bool)
+    mark_configs(body, gm.occ, gm.spheres, q0[None], 0.05)
+    np.testing.assert_array_equal(gm.swept_all, start_shell(gm.occ, gm.spheres, q0, 0.05, 0.10, task))
+    assert (loose.swept_all & box & ~body).any() and not (gm.swept_all & box & ~body).any()
+    assert gm.swept_all[loose.swept_all & ~box].all()

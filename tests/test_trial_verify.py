@@ -107,11 +107,11 @@ def stage(monkeypatch):
     det = SimpleNamespace(points_world=np.zeros((20, 3)) + 0.5, T_world_cam=np.eye(4))
     task = SimpleNamespace(target=None)
 
-    def run(config, look, task=task, rules=None):
+    def run(config, look, task=task, rules=None, method_swept=None):
         looker = lambda q, occ_, centres, way=None: SimpleNamespace(path=np.stack([q, q]), planned=True, gain=5,
                                                                      n_valid=1, plan_time_s=0.0)
         return grasp_stage.run_grasp_stage(world, occ, det, task, Q_HOME, [], config, np.random.default_rng(0), 0.1,
-                                           looker=looker, look=look, method_rules=rules)
+                                           looker=looker, look=look, method_rules=rules, method_swept=method_swept)
     return SimpleNamespace(run=run, occ=occ, ran=ran)
 
 
@@ -232,3 +232,21 @@ def test_a_look_that_sees_none_of_its_voxels_sends_the_stage_back_to_choose_with
     assert len(unseen) == 2 and unseen[0]["round"] == 0 and unseen[0]["unseen"] == r.look_log[0]["unknown_grasp"]
     # the second choice no longer takes the voxels the look missed as free (near-body space assumed before)
     assert len(selections) == 2 and np.count_nonzero(selections[1]) < np.count_nonzero(selections[0])
+
+
+def test_the_methods_swept_space_is_the_robots_own_but_not_where_it_was_seen_occupied(stage, monkeypatch):
+    everywhere = lambda: np.ones(stage.occ.shape, bool)  # the method claims the whole grid as its way
+    config = GraspTrialConfig(near_body_free=False, verify=VerifyConfig(max_views=0))
+    r = stage.run(config, lambda p, count=True: LookOutcome.NONE, method_swept=everywhere)
+    assert r.failure is None and len(stage.ran) == 1  # nothing unknown to look at
+    from dataclasses import replace
+    off = stage.run(replace(config, method_swept=False), lambda p, count=True: LookOutcome.NONE,
+                    method_swept=everywhere)
+    assert off.failure is TrialFailure.GRASP_UNVERIFIED and len(stage.ran) == 1
+    safe = []
+    orig = grasp_stage.select_grasp
+    monkeypatch.setattr(grasp_stage, "select_grasp", lambda *a, **k: safe.append(k["extra_safe"].copy())
+                        or orig(*a, **k))
+    stage.occ.state[3, 4, 5] = VoxelState.OCCUPIED  # seen occupied: never the robot's own
+    stage.run(config, lambda p, count=True: LookOutcome.NONE, method_swept=everywhere)
+    assert not safe[0][3, 4, 5] and np.count_nonzero(~safe[0]) == 1

@@ -182,6 +182,23 @@ def capped_field(checker: ValidityChecker, resolution: float) -> CappedDistance:
     return CappedDistance(resolution, int(math.ceil(checker.grid_cap_m(resolution) / resolution)) + 1)
 
 
+def start_shell(occ: OccupancyMap, spheres, q_start: np.ndarray, body_margin: float, free_margin: float,
+                task=None) -> np.ndarray:
+    """(nx, ny, nz) bool: the start posture q_start (7,) [rad]'s spheres grown by body_margin
+    [m] (the robot is there) and the shell of free_margin [m] around them, except inside the
+    confined space's outer box grown by its wall thickness and one voxel (task None: no box):
+    its boards, face frame and contents are what the Task leaves unknown, and a hand that
+    starts near the opening must see them before it moves there."""
+    q = np.asarray(q_start, dtype=np.float64).reshape(1, 7)
+    body = np.zeros(occ.shape, bool)
+    mark_configs(body, occ, spheres, q, body_margin)
+    shell = np.zeros(occ.shape, bool)
+    mark_configs(shell, occ, spheres, q, free_margin)
+    if task is not None:
+        shell &= ~space_box_mask(occ, task, task.space.wall_thickness + occ.resolution)
+    return body | shell
+
+
 class WorldModel:
     """Occupancy map + swept space + validity checker of one trial (one per method)."""
 
@@ -203,18 +220,8 @@ class WorldModel:
         self._mark_start_shell(task)
 
     def _mark_start_shell(self, task) -> None:
-        """The start posture's spheres are safe (the robot is there); the shell of
-        start_free_margin [m] around them is safe too, except inside the confined space's
-        outer box grown by its wall thickness and one voxel: its boards, face frame and
-        contents are what the Task leaves unknown, and a hand that starts near the opening
-        must see them before it moves there."""
-        body = np.zeros(self.occ.shape, bool)
-        mark_configs(body, self.occ, self.spheres, self.q[None], self.config.start_body_margin)
-        shell = np.zeros(self.occ.shape, bool)
-        mark_configs(shell, self.occ, self.spheres, self.q[None], self.config.start_free_margin)
-        if task is not None:
-            shell &= ~space_box_mask(self.occ, task, task.space.wall_thickness + self.occ.resolution)
-        self.swept |= body | shell
+        self.swept |= start_shell(self.occ, self.spheres, self.q, self.config.start_body_margin,
+                                  self.config.start_free_margin, task)
         self._marked = (self.spheres.sphere_centers(self.q[None])[0], float(self.config.start_body_margin))
 
     def observe(self, obs: Observation) -> None:

@@ -99,7 +99,11 @@ class GraspTrialConfig:
     of those voxels are executed and the grasp re-selected (`GRASP_UNVERIFIED` when the budget
     is spent). Measured (docs/grasping.md, "Look before moving"): 0/10 with 0 collision trials on
     seed 101 L1/L3 seen-free only; with `VerifyConfig.trust_outside_space` 2/10 there but 2
-    collision trials on seed 2026: off by default."""
+    collision trials on seed 2026: off by default. method_swept: the method's own space (its
+    world model's swept space: the executed way grown by its swept_margin, the start posture's
+    shell outside the confined space) is the robot's own for GRASP too, as INSPECT counts its
+    hypotheses' voxels and the method itself moves (before, GRASP took only the way grown by
+    moved_margin, so INSPECT stopped on hypotheses the selection then refused)."""
 
     enabled: bool = True
     target: TargetConfig = field(default_factory=TargetConfig)
@@ -117,6 +121,7 @@ class GraspTrialConfig:
     outside_free: bool = False
     near_body_halo: float = 0.0
     verify: VerifyConfig | None = None
+    method_swept: bool = True
 
     def __post_init__(self) -> None:
         if not 0.02 <= self.fine_margin <= 0.5:

@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import CompassInputError
-from ..exploration.world_model import mark_configs
+from ..exploration.world_model import mark_configs, start_shell
 from ..grasp.field import local_fine_map
 from ..mapping.observe import integrate_observation
 from ..mapping.occupancy import MapConfig, OccupancyMap, VoxelState
@@ -30,19 +30,22 @@ from .observer import TrialObserver
 class GraspMap(TrialObserver):
     """Integrates every frame into `occ` (map_config, default 1 cm) up to max_range [m]; the
     arm's spheres grown by swept_margin [m] along every motion (sampled every sweep_step
-    [rad]) and at the start (grown by start_margin [m]) are its own space (`swept`); with
+    [rad]) and at the start (grown by start_margin [m]; given the Task, only by
+    start_body_margin [m] inside the confined space's box, as the method's world model,
+    `exploration.world_model.start_shell`) are its own space (`swept`); with
     keep_frames every frame's observation (depth, K, pose, q; colour dropped) is kept in
     `frames`, in order, for `fine_map`."""
 
     def __init__(self, robot, map_config: MapConfig | None = None, max_range: float = 1.5,
                  swept_margin: float = 0.05, start_margin: float = 0.10, sweep_step: float = 0.05,
-                 keep_frames: bool = True) -> None:
+                 keep_frames: bool = True, task=None, start_body_margin: float = 0.05) -> None:
         self.occ = OccupancyMap(map_config or MapConfig())
         self.keep_frames = bool(keep_frames)
         self.frames: list[Observation] = []
         self.spheres = panda_sphere_model(robot)
         self.max_range, self.swept_margin, self.start_margin, self.sweep_step = \
             max_range, swept_margin, start_margin, sweep_step
+        self.task, self.start_body_margin = task, start_body_margin
         self.swept_all = np.zeros(self.occ.shape, bool)
         self._way: list[np.ndarray] = []
         self._fine: dict = {}  # (box, upsample) -> [fine map, frames integrated into it]
@@ -62,7 +65,11 @@ class GraspMap(TrialObserver):
 
     def start(self, world, method) -> None:
         q = np.asarray(world.q, dtype=np.float64)[None]
-        self._mark(q, self.start_margin)
+        if self.task is None:
+            self._mark(q, self.start_margin)
+        else:  # as the method's world model: inside the confined space's box only the body margin
+            self.swept_all |= start_shell(self.occ, self.spheres, q[0], self.start_body_margin, self.start_margin,
+                                          self.task)
         self._way.append(q)
 
     def motion(self, trajectory, t_start: float, t_end: float) -> None:

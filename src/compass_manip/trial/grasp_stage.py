@@ -123,7 +123,8 @@ def strict_transfer(occ, target, spheres, q: np.ndarray, q_pregrasp: np.ndarray,
 
 def run_grasp_stage(world, occupancy, detection, task, q_current: np.ndarray, moved: list[np.ndarray],
                     config, rng: np.random.Generator, planning_charge_s: float | None,
-                    grasp_map=None, pinned=None, method_rules=None, looker=None, look=None) -> GraspStageResult:
+                    grasp_map=None, pinned=None, method_rules=None, looker=None, look=None,
+                    method_swept=None) -> GraspStageResult:
     """Select and execute a grasp of the detected target from q_current (7,) [rad].
 
     occupancy: the method's map; detection: the accepted `perception.detector.Detection`;
@@ -140,7 +141,10 @@ def run_grasp_stage(world, occupancy, detection, task, q_current: np.ndarray, mo
     seen obstacles) is free for the grasp too. With `config.verify` (`trial.verify`, look
     before moving): looker, a `trial.verify.LookPlanner`, and look, the machine's
     `look(InspectPlan) -> trial.verify.LookOutcome` (it executes the view, feeds its
-    frames to the maps and advances the clock; `moved` grows by the view's path)."""
+    frames to the maps and advances the clock; `moved` grows by the view's path);
+    method_swept: `method_swept()` -> the method's own space on occupancy's grid (its world
+    model's swept space: the way grown by its swept_margin, the start posture's shell), taken
+    as the robot's own with `config.method_swept`, as INSPECT counts it and the method moves."""
     if rng is None:
         raise CompassInputError("run_grasp_stage needs an explicit np.random.Generator (rng)")
     q = np.asarray(q_current, dtype=np.float64)
@@ -154,12 +158,18 @@ def run_grasp_stage(world, occupancy, detection, task, q_current: np.ndarray, mo
     charge, n_views, chosen, sel, log = 0.0, 0, None, None, []
     q_home = np.asarray(world.robot.q_home)
 
+    def own_now():
+        own = own_space(occupancy, spheres, moved, config)
+        if config.method_swept and method_swept is not None:
+            own |= np.asarray(method_swept(), dtype=bool) & (occupancy.state != VoxelState.OCCUPIED)
+        return own
+
     def model():
         return build_target_model(points, detection.T_world_cam[:3, 3], task.target, occupancy, config.target)
 
     stuck = np.zeros(occupancy.shape, bool)  # voxels a look aimed at and did not see: no longer assumed free
     for round_ in range(1 if verify is None else verify.max_rounds):
-        target, own = model(), own_space(occupancy, spheres, moved, config)
+        target, own = model(), own_now()
         extra = own | (assumed_unknown_free(occupancy, config, spheres, q_home, task, method_rules) & ~stuck)
         fine, t_fine = None, 0.0
         if grasp_map is not None and config.fine_map and grasp_map.frames:
@@ -186,7 +196,7 @@ def run_grasp_stage(world, occupancy, detection, task, q_current: np.ndarray, mo
         Q_grasp, blocked0, strict_path = manoeuvre(sel, verify.step, transfer=False), None, None
         aimed, unseen = None, False
         while True:  # the grasp's own motions first, then a transfer through space seen free
-            own = own_space(occupancy, spheres, moved, config) | base_volume_mask(spheres, occupancy)
+            own = own_now() | base_volume_mask(spheres, occupancy)
             mark_configs(own, occupancy, spheres, q[None], config.select.robot_clearance)
             if verify.trust_outside_space and method_rules is not None:  # the baselines' rule, not Omega_safe's
                 rule = replace(method_rules, near_base_box=None)
