@@ -117,6 +117,18 @@ def grasp_inspect_halo(spec) -> tuple[dict, dict]:
     return _run(spec, grasp_inspect_halo_config())
 
 
+def grasp_inspect_own_config() -> TrialConfig:
+    """The grasp map with its 5 mm fine map and up to 20 grasp-aware INSPECT views, with no
+    assumption about unknown space beyond the method's own (its swept space and start shell,
+    `GraspTrialConfig.method_swept`): no near-body assumption."""
+    return TrialConfig(grasp=GraspTrialConfig(grasp_map=True, fine_map=True, near_body_free=False,
+                                              inspect=InspectConfig(n_views=20)))
+
+
+def grasp_inspect_own(spec) -> tuple[dict, dict]:
+    return _run(spec, grasp_inspect_own_config())
+
+
 def grasp_look_config() -> TrialConfig:
     """grasp_inspect_halo, and look before moving (`GraspTrialConfig.verify`, `trial.verify`):
     the near-body assumption only chooses; the manoeuvre runs once its swept voxels are seen free."""

@@ -82,12 +82,16 @@ class GraspTrialConfig:
     plan_via_home: when no path to the pre-grasps plans directly, the selection tries one via
     the home posture (`select_grasp(q_via=...)`); near_body_halo [m]: the near-body
     assumption leaves out unknown voxels within this L1 distance of a voxel seen occupied,
-    as the method's own rule does (`WorldModelConfig.obstacle_halo`; 0: off). The grasp map
-    with its fine map, 20 INSPECT views and an 8 cm halo (`benchmarks/trial_variants.py`,
-    `grasp_inspect_halo`) gave 3/20 end to end on seed 101 with 0 collision trials, but 0/20
-    with 1 collision trial on the fresh seed 2026 (link 3 on a base wall in the transfer,
-    through unseen space the near-body assumption took as free); with the selection's
-    400-candidate arm stage 6/20 and 3/20 with 1 and 2 such collision trials: not the default.
+    as the method's own rule does (`WorldModelConfig.obstacle_halo`; 0: off). The defaults
+    (since 2026-11-23): the grasp map with its fine map, 20 INSPECT views and an 8 cm halo,
+    with `method_swept` (`benchmarks/trial_variants.py`' `grasp_inspect_halo` before): end to
+    end on levels 1 and 3, scenes 0-4, 9/20 over seeds 101 and 2026 with 1 collision trial
+    (seed 101, level 3 scene 4: link 3 on an unseen base wall in the transfer, the near-body
+    assumption's risk; docs/grasping.md, "Where it stands"); the former defaults (the
+    method's 2 cm map, 6 INSPECT views, no halo) 0/7 on seed 101, and without the near-body
+    assumption (`grasp_inspect_own`) 0/6 on seed 2026. Before `method_swept` this configuration gave 3/20
+    on seed 101 and 0/20 with 1 collision trial on seed 2026 (link 3 on a base wall in the
+    transfer, through unseen space the near-body assumption took as free).
     outside_free: the unknown space the
     method's own validity checker takes as free (outside the confined space's box, farther
     than its obstacle halo from anything seen; `exploration.world_model.assumed_free_mask`)
@@ -112,14 +116,14 @@ class GraspTrialConfig:
     moved_margin: float = 0.02
     max_moved_configs: int = 400
     near_body_free: bool = True
-    inspect: InspectConfig = field(default_factory=InspectConfig)
-    grasp_map: bool = False
+    inspect: InspectConfig = field(default_factory=lambda: InspectConfig(n_views=20))
+    grasp_map: bool = True
     fine_map: bool = True
     fine_margin: float = 0.2
     scan: TrialScanConfig = field(default_factory=lambda: TrialScanConfig(max_views=0))
     plan_via_home: bool = False
     outside_free: bool = False
-    near_body_halo: float = 0.0
+    near_body_halo: float = 0.08
     verify: VerifyConfig | None = None
     method_swept: bool = True
 
