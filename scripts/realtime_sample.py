@@ -9,6 +9,10 @@ median, p10, p90 and pooled sim / CPU. Two runs of different code on the same tr
 compared line by line (`--out` writes the rows as JSON).
 
   python scripts/realtime_sample.py --methods compass,gse --levels 1,2,3,4 --scenes 3 --seed 606 [--out rows.json]
+
+--map-stride and --detector-period override the exploration map's `MapConfig.pixel_stride`
+and the detector's `BufferConfig.min_period_s` [s] (docs/compass_loop.md, "Real time, sixth
+round"; both off by default: `--map-stride 1 --detector-period 0`).
 """
 from __future__ import annotations
 
@@ -17,6 +21,7 @@ import hashlib
 import json
 import sys
 import time
+from dataclasses import replace
 
 import numpy as np
 
@@ -28,6 +33,8 @@ def main(argv=None) -> int:
     p.add_argument("--scenes", type=int, default=3)
     p.add_argument("--seed", type=int, default=606)
     p.add_argument("--out", default=None)
+    p.add_argument("--map-stride", type=int, default=None)
+    p.add_argument("--detector-period", type=float, default=None)
     args = p.parse_args(argv)
     from compass_manip.errors import CompassInputError
     from compass_manip.sim.certify import certified_scene
@@ -40,10 +47,15 @@ def main(argv=None) -> int:
             raise CompassInputError(f"--scenes {args.scenes} is not allowed; use 1 or more")
         specs = [check_spec(TrialSpec(m, lv, s, 0, args.seed)) for m in args.methods.split(",") for lv in levels
                  for s in range(args.scenes)]
+        config = TrialConfig(grasp=GraspTrialConfig(enabled=False))
+        if args.map_stride is not None:
+            world = replace(config.method.world, map=replace(config.method.world.map, pixel_stride=args.map_stride))
+            config = replace(config, method=replace(config.method, world=world))
+        if args.detector_period is not None:
+            config = replace(config, buffer=replace(config.buffer, min_period_s=args.detector_period))
     except (CompassInputError, ValueError) as exc:
         print(f"realtime_sample: {exc}", file=sys.stderr)
         return 2
-    config = TrialConfig(grasp=GraspTrialConfig(enabled=False))
     for spec in specs:
         certified_scene(spec.level, spec.scene, spec.seed)
     run_trial_full(specs[0], config)  # warm-up

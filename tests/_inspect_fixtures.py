@@ -41,7 +41,7 @@ def machine_parts():
         T_world_cam=np.eye(4), observation=lambda: None))
     method = SimpleNamespace(observe=lambda obs: None, occupancy=None, add_points_of_interest=lambda pts: None)
     det = SimpleNamespace(t=1.5, points_world=np.ones((20, 3)), T_world_cam=np.eye(4))
-    buffer = SimpleNamespace(push=lambda f: None, sync=lambda: None, take_hints=lambda: np.zeros((0, 3)),
+    buffer = SimpleNamespace(push=lambda f: None, sync=lambda t_now=None: None, take_hints=lambda: np.zeros((0, 3)),
                              best=lambda: SimpleNamespace(detection=det))
     metrics = SimpleNamespace(collisions=0, explored_fraction=lambda t, occ: None, plans_attempted=0,
                               plans_succeeded=0)

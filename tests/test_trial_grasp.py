@@ -36,7 +36,7 @@ class _Stubs:
         self.method = SimpleNamespace(observe=lambda obs: None, occupancy=None,
                                       add_points_of_interest=lambda pts: None)
         det = SimpleNamespace(t=1.5)
-        self.buffer = SimpleNamespace(push=lambda f: None, sync=lambda: None, take_hints=lambda: np.zeros((0, 3)),
+        self.buffer = SimpleNamespace(push=lambda f: None, sync=lambda t_now=None: None, take_hints=lambda: np.zeros((0, 3)),
                                       best=lambda: SimpleNamespace(detection=det))
         self.metrics = SimpleNamespace(collisions=0, explored_fraction=lambda t, occ: None)
 

@@ -8,6 +8,15 @@ is nearest the image centre (the paper's S_obs = -||p_bbox - p_center||); ties g
 later observation. `sync()` waits until every pushed observation has been processed: the
 trial calls it at decision points so that runs are reproducible while detection still runs
 concurrently with the motion, mapping and decisions in between.
+
+A detector rate in simulated time (`BufferConfig.min_period_s` > 0) models a detector that
+cannot keep up with the camera: it starts on a frame when it is free and is then busy for
+min_period_s of simulated time; frames arriving while it is busy wait in a one-frame slot,
+a newer one replacing (skipping) the older, and the slot's frame starts when the detector
+is free again (at a later push, or at `sync(t_now)` once t_now reaches that time). A rate,
+not a latency: a frame's detections carry the frame's time and are read at the first
+decision point after the frame started. Which frames are processed depends only on the
+frames' time stamps, so a seed still gives one trial.
 """
 from __future__ import annotations
 
@@ -28,14 +37,20 @@ from .detector import Detection, Detector, Verdict
 @dataclass(frozen=True)
 class BufferConfig:
     """size: observations in the sliding window (k + 1 in the paper); threaded: run the
-    detector on a worker thread (False: in push, for debugging)."""
+    detector on a worker thread (False: in push, for debugging); min_period_s [s] of
+    simulated time between the starts of two frames' detection (0: every frame is
+    processed; see the module docstring)."""
 
     size: int = 8
     threaded: bool = True
+    min_period_s: float = 0.0
 
     def __post_init__(self) -> None:
         if not 1 <= self.size <= 1000:
             raise CompassInputError(f"buffer size {self.size} is not allowed; use 1..1000")
+        if not (isinstance(self.min_period_s, (int, float)) and 0.0 <= self.min_period_s <= 10.0):
+            raise CompassInputError(f"min_period_s {self.min_period_s!r} is not allowed; use 0..10 s "
+                                    "(0: detect on every frame)")
 
 
 @dataclass(frozen=True, eq=False)
@@ -70,6 +85,9 @@ class DetectionBuffer:
         self._error: BaseException | None = None
         self.compute_s: list[float] = []  # detector time per observation [s]
         self.n_processed = 0
+        self.n_skipped = 0  # frames replaced in the slot before the detector was free
+        self._pending: Observation | None = None  # the slot (min_period_s > 0)
+        self._t_free = -float("inf")  # simulated time [s] at which the detector is free
         self._thread = None
         if self.config.threaded:
             self._thread = threading.Thread(target=self._work, name="detection", daemon=True)
@@ -77,14 +95,37 @@ class DetectionBuffer:
 
     # ---------------------------------------------------------------- producer side
     def push(self, obs: Observation) -> None:
-        """Enqueue an observation (needs rgb for appearance detectors); never blocks."""
+        """Enqueue an observation (needs rgb for appearance detectors, and its time `t` [s]
+        when min_period_s > 0); never blocks."""
+        if self.config.min_period_s <= 0.0:
+            self._start(obs)
+            return
+        self._release(obs.t)
+        if obs.t >= self._t_free:
+            self._t_free = obs.t + self.config.min_period_s
+            self._start(obs)
+        else:
+            self.n_skipped += self._pending is not None
+            self._pending = obs
+
+    def _release(self, t_now: float) -> None:
+        """Start the slot's frame if the detector is free by simulated time t_now [s]."""
+        if self._pending is not None and self._t_free <= t_now:
+            obs, self._pending = self._pending, None
+            self._t_free += self.config.min_period_s
+            self._start(obs)
+
+    def _start(self, obs: Observation) -> None:
         if self._thread is None:
             self._process(obs)
         else:
             self._queue.put(obs)
 
-    def sync(self, timeout: float = 60.0) -> None:
-        """Wait until all pushed observations are processed; re-raise a worker error."""
+    def sync(self, t_now: float | None = None, timeout: float = 60.0) -> None:
+        """Wait until all started observations are processed (first starting the slot's
+        frame if the detector is free by simulated time t_now [s]); re-raise a worker error."""
+        if t_now is not None:
+            self._release(t_now)
         if self._thread is not None:
             deadline = time.monotonic() + timeout
             while self._queue.unfinished_tasks and time.monotonic() < deadline:

@@ -115,7 +115,7 @@ class TrialMachine:
         self.metrics.explored_fraction(0.0, self.method.occupancy)
         failure, found = None, None
         while True:
-            self.buffer.sync()
+            self.buffer.sync(self.t)
             self.method.add_points_of_interest(self.buffer.take_hints())
             found = self.buffer.best()
             if found is not None:
