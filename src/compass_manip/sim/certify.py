@@ -25,8 +25,9 @@ planner's own conservative sphere model on the ground-truth geometry:
    distance to the target never grows (monotonic approach, checked with step 7);
 6. levels 3, 4: the base obstacles remove >= `min_obstacle_removal` of the good views and,
    on its own, of the valid grasps the same scene has without them (per kind at the
-   `per_kind_obstacle_levels`, level 3; counted together at level 4; the severe levels'
-   good views counted over their inside poses too, `view_search.search_views`);
+   `per_kind_obstacle_levels`, both; the severe levels' good views counted over their inside
+   poses too, `view_search.search_views`, level 4's grasps over the dense neck family too,
+   `dense_grasp_levels`; level 4's obstacles are aimed, `aimed_obstacles`);
 7. home -> good view -> pre-grasp plan (`motion.planner.plan`), then pre-grasp -> grasp -> lift;
 8. physics: following pre-grasp -> grasp, closing and lifting holds the target.
 The first failing step is the certificate's `failure`; None means certified.
@@ -48,6 +49,7 @@ from .levels import check_level, generate_scene
 from .oracle import GroundTruthGrasp, find_grasp  # noqa: F401  (re-exported for older callers)
 from .physics import grasp_and_lift
 from . import outside_views, scene_cache
+from .aimed_obstacles import AIMED_LEVELS, aim, layout_samples
 from .home_clearance import home_clearance
 from .scenes import SceneSpec
 from .view_search import best_exact_visibility, sample_view_poses, search_views  # noqa: F401
@@ -86,10 +88,12 @@ class CertifyConfig:
     everything but the target (the hand's and arm's spheres grown by it).
     check_home_clearance: make step 1b a gate (off only to measure what it rejects).
     per_kind_obstacle_levels: levels whose step 6 holds views and grasps to
-    min_obstacle_removal each; the other obstacle levels count them together. Level 4 is not
-    among them by default: its layouts have 1-3 valid neck grasps without the obstacles
-    (0-1 in all 50 layouts of level-4 scene 7 of seed 0), so per kind most layouts cannot
-    pass and that scene has no certified candidate in 800 (docs/scenes.md)."""
+    min_obstacle_removal each; the other obstacle levels count them together (both levels
+    since branch l4k; level 4 counted together before). dense_grasp_levels: obstacle levels
+    whose grasps are counted over the dense neck family too (`oracle.dense_neck_candidates`,
+    after the max_grasp_candidates of `oracle.grasp_candidates`): the sparse family has 1-3
+    valid neck grasps per severe layout, which makes a 30 % removal all or nothing; the
+    dense one 2-31 (level 4's obstacles are aimed at them, `aimed_obstacles`)."""
 
     n_views: int = 40
     n_view_poses: int = 160
@@ -112,7 +116,8 @@ class CertifyConfig:
     n_severe_inside_views: int = 60
     severe_grasp_margin: float = 0.01
     check_home_clearance: bool = True
-    per_kind_obstacle_levels: tuple[int, ...] = (3,)
+    per_kind_obstacle_levels: tuple[int, ...] = (3, 4)
+    dense_grasp_levels: tuple[int, ...] = (4,)
 
     def __post_init__(self) -> None:
         if not 0.0 <= self.severe_grasp_margin <= 0.05:
@@ -370,7 +375,8 @@ def _line(a: np.ndarray, b: np.ndarray, duration: float = 1.2) -> Trajectory:
 def _grasps(world: World, config: CertifyConfig, ik, obstacles: bool, margin: float):
     """Valid ground-truth grasps (at most 4 kept unless counting), checked with the sphere
     model grown by margin [m], and, with base obstacles, the number of candidates valid with
-    and without them (all candidates are then evaluated)."""
+    and without them (all candidates are then evaluated; at the dense_grasp_levels the dense
+    neck family too)."""
     scene = world.scene
     home = np.asarray(world.robot.q_home)
     found: list[GroundTruthGrasp] = []
@@ -380,7 +386,10 @@ def _grasps(world: World, config: CertifyConfig, ik, obstacles: bool, margin: fl
     if obstacles:
         full_wo = oracle.ground_truth_checker(scene, base_obstacles=False, margin=margin)
         nt_wo = oracle.ground_truth_checker(scene, exclude_target=True, base_obstacles=False, margin=margin)
-    for T, deg in oracle.grasp_candidates(scene)[:config.max_grasp_candidates]:
+    candidates = oracle.grasp_candidates(scene)[:config.max_grasp_candidates]
+    if obstacles and scene.level in config.dense_grasp_levels:
+        candidates += oracle.dense_neck_candidates(scene)
+    for T, deg in candidates:
         sols = oracle.grasp_solutions(ik, T, home, config.n_q7_grasp)
         g = oracle.first_valid_grasp(ik, T, sols, full, no_target, world)
         if g is not None:
@@ -395,6 +404,9 @@ def _grasps(world: World, config: CertifyConfig, ik, obstacles: bool, margin: fl
 
 #: Levels 3/4: base-obstacle draws tried on one layout (cabinet and objects) before the next.
 OBSTACLE_DRAWS = 8
+#: A rejection (in `CertifiedScene.rejections`) of an aimed level's sub-seed whose obstacle
+#: draws were none predicted to pass (`aimed_obstacles.aim`): not certified.
+NOT_AIMED = "OBSTACLES_NOT_AIMED"
 
 
 def _other_obstacles_may_pass(scene: SceneSpec, cert: Certificate, per_kind_levels: tuple[int, ...]) -> bool:
@@ -441,13 +453,17 @@ def certified_scene(level: int, index: int, seed: int = 0, config: CertifyConfig
     attempt = 0
     while attempt < config.max_attempts:
         scene = regenerate((int(seed), level, int(index), attempt))
-        cert = certify(scene, config)
-        if cert.certified:
+        cert = None if scene.extra.get("aim_draws") == 0 else certify(scene, config)
+        if cert is not None and cert.certified:
             if cache:
                 scene_cache.store(path, scene, cert, len(rejections) + 1, rejections)
             return CertifiedScene(scene, cert, len(rejections) + 1, tuple(rejections))
-        rejections.append(cert.failure.name)
+        rejections.append(cert.failure.name if cert is not None else NOT_AIMED)
         attempt += 1
+        if cert is None:  # no obstacle draw predicted to pass: the layout's other draws, then the next layout
+            if not _aim_possible(scene):
+                attempt += (OBSTACLE_DRAWS - attempt % OBSTACLE_DRAWS) % OBSTACLE_DRAWS
+            continue
         if level >= 3 and attempt % OBSTACLE_DRAWS and not _other_obstacles_may_pass(scene, cert, config.per_kind_obstacle_levels):
             attempt += OBSTACLE_DRAWS - attempt % OBSTACLE_DRAWS  # the next layout
     raise RuntimeError(
@@ -455,14 +471,28 @@ def certified_scene(level: int, index: int, seed: int = 0, config: CertifyConfig
     )
 
 
+def _aim_possible(scene: SceneSpec) -> bool:
+    """Whether the layout has >= 2 sampled good views and >= 2 valid grasps (`aimed_obstacles`)."""
+    seed, level, index, attempt = scene.seed
+    s = layout_samples(seed, level, index, attempt // OBSTACLE_DRAWS)
+    return len(s.views) >= 2 and len(s.grasps) >= 2
+
+
 def regenerate(sub_seed: tuple[int, int, int, int]) -> SceneSpec:
     """The candidate scene of a sub-seed (seed, level, index, attempt). Levels 3/4: the layout
     from (seed, level, index, attempt // OBSTACLE_DRAWS), the base obstacles from (seed,
-    level, index, attempt, 1)."""
+    level, index, attempt, 1); at the `aimed_obstacles.AIMED_LEVELS` (4) they are aimed
+    instead: the first of AIM_DRAWS draws from (seed, level, index, attempt, 2) predicted to
+    pass the per-kind gate (`extra["aim_draws"]`: draws used, 0 when none was: the blind draw
+    is kept and `certified_scene` does not certify it)."""
     seed, level, index, attempt = (int(s) for s in sub_seed)
     if level >= 3:
         scene = generate_scene(level, index, np.random.default_rng([seed, level, index, attempt // OBSTACLE_DRAWS]),
                                np.random.default_rng([seed, level, index, attempt, 1]))
+        if level in AIMED_LEVELS:
+            aimed = aim(scene, layout_samples(seed, level, index, attempt // OBSTACLE_DRAWS),
+                        np.random.default_rng([seed, level, index, attempt, 2]))
+            scene = aimed if aimed is not None else replace(scene, extra={**scene.extra, "aim_draws": 0})
     else:
         scene = generate_scene(level, index, np.random.default_rng([seed, level, index, attempt]))
     return replace(scene, seed=(seed, level, index, attempt))

@@ -17,9 +17,10 @@ L2 severe (`severe`): a tall bottle at the back of the bottom storey, a cereal b
    rail under the shelf above: from outside only the neck shows (no camera more than 10 cm
    in front of the opening sees >= 30 % of the target, certified); the wrist camera looks
    down behind the box from inside the storey, and the only grasp is on the neck, over it.
-L3 = L1 + obstacles near the base and arm; L4 = L2 + those obstacles. The obstacle variant
-   (overhead plate / lateral walls / bar, wall and post) is chosen by scene index, so
-   rejection never drops a variant.
+L3 = L1 + obstacles near the base and arm; L4 = L2 + those obstacles and a short low bar
+   across the forearm's way in front of the opening (`forearm_bar`; the certification aims
+   level 4's draws, `aimed_obstacles`). The obstacle variant (overhead plate / lateral walls /
+   bar, wall and post) is chosen by scene index, so rejection never drops a variant.
 
 `generate_scene` draws one candidate; `certify.certified_scene` checks it and moves to the
 next sub-seed when it fails.
@@ -27,6 +28,7 @@ next sub-seed when it fails.
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 
@@ -276,6 +278,42 @@ def _base_obstacles(rng: np.random.Generator, variant: str, z_cabinet: float,
     return out
 
 
+#: Level 4's low bar (`forearm_bar`): half length along y [m], centre x [m] from the base (at
+#: most this far before the opening plane), height [m] and offset [m] of its centre from the
+#: target's y. Where the arm's good views and neck grasps differ: near the base they keep to
+#: the same space (an overhead plate >= 11.7 cm above home removes none), while the forearm
+#: dips towards the storey's floor under the opening for some views and grasps and not others
+#: (docs/scenes.md, "Level 4's obstacles").
+LOW_BAR_HALF_LENGTH = (0.03, 0.15)
+LOW_BAR_X = (0.30, 0.06)
+LOW_BAR_Z = (0.34, 0.50)
+LOW_BAR_DY = 0.2
+
+
+def forearm_bar(rng: np.random.Generator, target_y: float, x_opening: float) -> Primitive:
+    """A short horizontal bar (2 x 4 cm section) across the forearm's way in front of the
+    opening, below its bottom storey's top: level 4's obstacle aimed at the arm between base
+    and opening (with one lateral wall, the lateral constraint, and the variant's others)."""
+    half = _u(rng, *LOW_BAR_HALF_LENGTH)
+    pos = (_u(rng, LOW_BAR_X[0], x_opening - LOW_BAR_X[1]), target_y + _u(rng, -LOW_BAR_DY, LOW_BAR_DY),
+           _u(rng, *LOW_BAR_Z))
+    return Primitive("base_low_bar", "box", (0.02, float(half), 0.02), tuple(float(v) for v in pos), 0.0,
+                     OBSTACLE_RGBA)
+
+
+def draw_base_obstacles(scene: SceneSpec, rng: np.random.Generator) -> tuple[Primitive, ...]:
+    """A fresh draw of a level-3/4 scene's base obstacles (its variant, `scene.extra`) from rng:
+    what `generate_scene` draws from its obstacle generator; level 4 adds `forearm_bar`."""
+    variant = scene.extra.get("obstacle_variant", "")
+    if scene.level < 3 or not variant:
+        return ()
+    severe = scene.level == 4
+    out = _base_obstacles(rng, variant, scene.cabinet.interior_min[2], severe)
+    if severe:
+        out.append(forearm_bar(rng, float(scene.target.pos[1]), float(scene.cabinet.opening()[0][0])))
+    return tuple(out)
+
+
 def generate_scene(level: int, index: int, rng: np.random.Generator,
                    obstacle_rng: np.random.Generator | None = None) -> SceneSpec:
     """Draw one candidate scene of `level` (1..4). Pure function of the generators' states.
@@ -339,8 +377,8 @@ def _draw(level: int, index: int, rng: np.random.Generator, severe: bool,
         raise _Retry("too few objects")
     variants = SEVERE_OBSTACLE_VARIANTS if severe else OBSTACLE_VARIANTS
     variant = variants[index % len(variants)] if level >= 3 else ""
-    obstacles = _base_obstacles(obstacle_rng or rng, variant, cab.interior_min[2], severe) if level >= 3 else []
     extra = {"obstacle_variant": variant,
              "target_row": comp.row, "target_in_corner_compartment": bool(comp.corner)}
-    return SceneSpec(level=level, index=index, seed=(), cabinet=cab, target=target, clutter=tuple(b.objects),
-                     base_obstacles=tuple(obstacles), extra=extra)
+    scene = SceneSpec(level=level, index=index, seed=(), cabinet=cab, target=target, clutter=tuple(b.objects),
+                      extra=extra)
+    return replace(scene, base_obstacles=draw_base_obstacles(scene, obstacle_rng or rng))

@@ -125,7 +125,34 @@ def grasp_candidates(scene: SceneSpec) -> list[tuple[np.ndarray, float]]:
     return [(T, deg) for _, T, deg in out]
 
 
-def _part_candidates(body, z_tcp: float, pitches, key_offset: float) -> list:
+#: The denser neck family the severe obstacle level counts its grasps over (`dense_neck_candidates`):
+#: approach yaws [rad] every 0.05 rad within +-0.45 (the neck grasps that pass the 1 cm margin
+#: approach within ~0.35 rad of +x) and TCP depths [m] below the neck's top around NECK_TCP_DEPTH.
+DENSE_NECK_YAW = tuple(float(v) for v in np.round(np.linspace(-0.45, 0.45, 19), 4))
+DENSE_NECK_TCP_DEPTH = (0.014, 0.018, 0.022)
+
+
+def dense_neck_candidates(scene: SceneSpec) -> list[tuple[np.ndarray, float]]:
+    """The neck candidates of `grasp_candidates` sampled densely (DENSE_NECK_YAW x
+    DENSE_NECK_TCP_DEPTH x NECK_PITCH_DEG x both rolls, 228 poses), (T_world_tcp, approach_deg)
+    in the same order rule; [] for a target without a long neck. The severe candidates have 1-3
+    valid neck grasps in the sparse family (7 yaws, one depth), which makes "the obstacles
+    remove >= 30 % of the grasps" all or nothing; over this family a layout has 2-31
+    (docs/scenes.md)."""
+    tgt = scene.target
+    if not (tgt.category == "bottle" and len(tgt.parts) > 1
+            and 2 * tgt.parts[1].half_extents[2] >= NECK_MIN_HEIGHT - 1e-9):
+        return []
+    neck = tgt.parts[1]
+    out = []
+    for depth in DENSE_NECK_TCP_DEPTH:
+        out += _part_candidates(neck, neck.pos[2] + neck.half_extents[2] - depth, NECK_PITCH_DEG, 0.0,
+                                DENSE_NECK_YAW)
+    out.sort(key=lambda c: c[0])
+    return [(T, deg) for _, T, deg in out]
+
+
+def _part_candidates(body, z_tcp: float, pitches, key_offset: float, round_yaws=APPROACH_YAW) -> list:
     """(sort key, T_world_tcp, approach_deg) of the antipodal candidates on one part, the
     TCP on its axis at height z_tcp [m]."""
     h = body.half_extents
@@ -136,7 +163,7 @@ def _part_candidates(body, z_tcp: float, pitches, key_offset: float) -> list:
             if abs(yaw) <= 0.95:
                 yaws.append((yaw, 2 * float(h[1] if k % 2 == 0 else h[0])))
     else:
-        yaws = [(yaw, 2 * float(h[0])) for yaw in APPROACH_YAW]
+        yaws = [(yaw, 2 * float(h[0])) for yaw in round_yaws]
     out = []
     for pitch_deg in pitches:
         pitch = np.radians(pitch_deg)
