@@ -3,7 +3,7 @@ the detection missed, e.g. a bottle's neck), stops at the first layer without on
 above a gap stays out) and never above the lowest point plus the query's height."""
 import numpy as np
 
-from compass_manip.grasp.target import TargetConfig, build_target_model, grow_top
+from compass_manip.grasp.target import TargetConfig, build_target_model, grow_top, round_axis
 from compass_manip.mapping.occupancy import MapConfig, OccupancyMap, VoxelState
 from compass_manip.task import TargetQuery
 
@@ -104,3 +104,25 @@ def test_a_bottle_seen_whole_keeps_the_bodys_axis_for_its_neck():
     body = m.points[~m.observed & (m.points[:, 2] < 0.24)]
     neck = m.points[~m.observed & (m.points[:, 2] > 0.26)]
     assert abs(body[:, 0].max() - 0.23) < 0.006 and abs(neck[:, 0].max() - 0.213) < 0.006
+
+
+def _disc_behind(cx, radius, z, front_cut):
+    """The top face (z [m]) of a vertical cylinder around (cx, 0), only its part behind
+    x = front_cut [m] (a box in front hides the rest, as at the severe levels)."""
+    g = np.arange(-radius, radius + 1e-9, 0.003)
+    x, y = np.meshgrid(cx + g, g)
+    keep = (np.hypot(x - cx, y) <= radius) & (x >= front_cut)
+    return np.c_[x[keep], y[keep], np.full(int(keep.sum()), z)]
+
+
+def test_a_body_top_seen_behind_a_box_does_not_move_the_axis_back():
+    """The body's top face, its front hidden, is as wide as the body but starts 2 cm behind
+    its front: the axis comes from the neck's slices (the foremost estimate), within 2 mm."""
+    pts = np.vstack([_disc_behind(0.20, 0.03, 0.30, 0.19), _arc(0.20, 0.012, 0.30, 0.38)])
+    q = TargetQuery("bottle", "green", (0.06, 0.06, 0.22))
+    view = np.array([1.0, 0.0, 0.0])
+    depth, across, widest = round_axis(pts, view, 0.01)
+    assert abs(depth - 0.20) < 0.002 and abs(across) < 0.002 and widest > 0.05
+    m = build_target_model(pts, np.array([-0.3, 0.0, 0.5]), q)
+    assert m.points[:, 0].max() < 0.20 + 0.03 + 0.006  # mirrored through the true axis
+

@@ -15,7 +15,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import CompassInputError
 from ..exploration.world_model import WorldModelConfig, mark_configs, method_safe_voxels, outside_space_mask
+from ..grasp.field import local_fine_map
 from ..mapping.distance import DistanceField
 from ..mapping.observe import integrate_observation
 from ..mapping.occupancy import OccupancyMap, VoxelState
@@ -27,10 +29,21 @@ from ..robot.model import GRIPPER_MAX_WIDTH
 
 
 class HarnessModel:
-    """The harness's map with the robot's way as its own space (module doc)."""
+    """The harness's map with the robot's way as its own space (module doc). frames: the depth
+    frames integrated into occ so far (kept, with every frame `observe`d later, for
+    `fine_map`; None: no fine map); max_range [m] of the sensor; fine_margin [m] around the
+    target's points and upsample of the fine map (the harness's `GraspOnlyConfig`)."""
 
-    def __init__(self, occ: OccupancyMap, spheres, robot, task, config: WorldModelConfig | None = None) -> None:
+    def __init__(self, occ: OccupancyMap, spheres, robot, task, config: WorldModelConfig | None = None,
+                 frames: list | None = None, max_range: float = 2.0, fine_margin: float = 0.2,
+                 upsample: int = 2) -> None:
+        if not 0.0 < max_range <= 10.0 or not 0.0 < fine_margin <= 1.0:
+            raise CompassInputError(f"max_range {max_range} m / fine_margin {fine_margin} m not allowed; "
+                                    "use (0, 10] and (0, 1] m")
         self.occ, self.spheres = occ, spheres
+        self.frames = None if frames is None else list(frames)
+        self.max_range, self.fine_margin, self.upsample = float(max_range), float(fine_margin), int(upsample)
+        self._fine: dict = {}
         self.config = config or WorldModelConfig()
         self.kin = PandaKinematics(robot)
         self.swept_all = np.zeros(occ.shape, bool)
@@ -57,7 +70,27 @@ class HarnessModel:
 
     def observe(self, frame, max_range: float) -> None:
         integrate_observation(self.occ, frame, self.spheres, max_range)
+        if self.frames is not None:
+            self.frames.append(frame)
         self._checker = None
+
+    def fine_map(self, points: np.ndarray) -> OccupancyMap | None:
+        """The kept frames integrated at `upsample` x the map's resolution within fine_margin [m]
+        of points (N,3) [m] (`grasp.field.local_fine_map`: the map the harness's selection
+        gets); a box asked for before is kept and takes only the frames since. None without
+        frames."""
+        if not self.frames:
+            return None
+        pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        lo, hi = pts.min(0) - self.fine_margin, pts.max(0) + self.fine_margin
+        key = (tuple(np.round(lo, 9)), tuple(np.round(hi, 9)))
+        if key not in self._fine:
+            self._fine[key] = [local_fine_map(self.occ, lo, hi, self.upsample), 0]
+        entry = self._fine[key]
+        for f in self.frames[entry[1]:]:
+            integrate_observation(entry[0], f, self.spheres, self.max_range)
+        entry[1] = len(self.frames)
+        return entry[0]
 
 
 @dataclass(frozen=True, eq=False)

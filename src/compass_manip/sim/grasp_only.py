@@ -308,7 +308,9 @@ def run_grasp_only(scene: SceneSpec, config: GraspOnlyConfig | None = None, seed
         task = scene.task()
         q_sel, n_insp, proposer = q_view, 0, None
         if config.inspect.n_views > 0:  # the trial's grasp-aware INSPECT, on this map
-            model = HarnessModel(occ, spheres, world.robot, task)
+            model = HarnessModel(occ, spheres, world.robot, task, frames=frames if config.fine_map else None,
+                                 max_range=world.camera.depth_max, fine_margin=config.fine_margin,
+                                 upsample=config.select.field_upsample)
             model.add_swept(np.asarray(moved))
             near = (lambda o: near_body_unknown(o, spheres, q_home)) if config.near_body_free else None
             inspector = GraspInspector(model, world.camera.K, task, config.target, config.select, config.inspect,

@@ -1,0 +1,257 @@
+"""Diagnosis (GROUND TRUTH, read here only): what stops the severe levels' neck grasps.
+
+Per scene (levels 2/4, indices --start..; seed) the grasp-only harness runs up to its
+selection with its default config (INSPECT included) and the inputs are captured. Then:
+
+* the selection itself on those inputs (its failure and rejection counts);
+* the in-cone candidates and, of them, the ones on the neck (TCP within the neck's height and
+  1 cm of its axis, approach within 15 deg of level): how many the rigid hand's checks reject
+  at the grasp, on the approach and on the lift, how many of those are free in truth, and the
+  unsafe 5 mm cells that block the GT-free ones;
+* the on-neck hands that pass: the arm stage's verdict (`GraspChecks.check_shorter`) and,
+  for each rejected one, the cells blocking the whole robot at the first failing
+  configuration (grasp, pre-grasp or lift of its first IK solution free in truth);
+* the certified grasp (the certificate's path): the hand's verdict, the arm configurations';
+* whether the held target (the model's points) is clear along each lift height (a scene-wide
+  verdict: every candidate's lift needs it), and where the model's back and centre lie against
+  the true bottle (x: along the opening's inward normal).
+
+Blocking cells are classified by map state (fine map where it reaches, else 1 cm), by truth
+(obstacle within a 1 cm voxel's half diagonal of the scene less the target, else free) and by
+region in the target's frame (u along the inward approach from the neck's axis, v lateral,
+z against the occluder's top): `above_box` (u within the box's depth, z > 0), `behind`
+(u > neck radius), `in_front` (u before the box's front), `beside`, `below_box_top`.
+Prints one JSON line per scene. Run:
+`PYTHONPATH=src:benchmarks python benchmarks/diag_severe.py --levels 2 4 --count 10`.
+"""
+from __future__ import annotations
+
+import argparse
+import copy
+import json
+import math
+import os
+import sys
+from collections import Counter
+
+os.environ.setdefault("MUJOCO_GL", "egl")
+
+import numpy as np
+
+from compass_manip.grasp.candidates import AntipodalProposer, propose_in_cone
+from compass_manip.grasp.checks import (GraspChecks, first_clear, hand_clear, lift_steps, offset_pose,
+                                        pregrasp_steps, rigid_hand_spheres)
+from compass_manip.grasp.select import (GraspSelectConfig, approach_angles, base_volume_mask, desired_approach,
+                                        select_grasp)
+from compass_manip.mapping.occupancy import VoxelState
+from compass_manip.robot.ik import PandaIK
+from compass_manip.robot.spheres import panda_sphere_model
+from compass_manip.sim import grasp_only, oracle
+from compass_manip.sim.certify import certified_scene
+from compass_manip.sim.world import World
+from diag_grasp_certified import _dists, blocking_cells
+from diag_hand_rejections import gt_free, label_of, scene_arguments
+
+STATE = {int(VoxelState.UNKNOWN): "unknown", int(VoxelState.OCCUPIED): "occupied", int(VoxelState.FREE): "free",
+         -1: "outside"}
+
+
+def capture(scene, seed: int) -> dict:
+    """The harness's inputs to select_grasp (the run stops there)."""
+    box: dict = {}
+    orig = grasp_only.select_grasp
+
+    def sel(target, occ, task, q, sph, config, rng, **kw):
+        box.update(target=target, occ=occ, task=task, q=q, config=config, rng=copy.deepcopy(rng), **kw)
+        raise StopIteration
+
+    grasp_only.select_grasp = sel
+    try:
+        grasp_only.run_grasp_only(scene, seed=seed)
+    except StopIteration:
+        pass
+    finally:
+        grasp_only.select_grasp = orig
+    return box
+
+
+class Frame:
+    """The target's frame (ground truth): u along the inward approach (+x of the scene) from
+    the neck's axis, v lateral, z against the occluder's top."""
+
+    def __init__(self, scene):
+        tgt = scene.target
+        self.axis = np.asarray(tgt.parts[1].pos[:2], dtype=np.float64)
+        self.r_neck = float(tgt.parts[1].half_extents[0])
+        occl = [o for o in scene.objects if o.role == "occluder"]
+        lo, hi = occl[0].aabb() if occl else (np.full(3, np.nan), np.full(3, np.nan))
+        self.box_lo, self.box_hi = np.asarray(lo), np.asarray(hi)
+        self.neck_top = float(tgt.aabb()[1][2])
+
+    def uvz(self, P: np.ndarray) -> np.ndarray:
+        return np.column_stack([P[:, 0] - self.axis[0], P[:, 1] - self.axis[1], P[:, 2] - self.box_hi[2]])
+
+    def region(self, P: np.ndarray) -> np.ndarray:
+        u, v, z = self.uvz(P).T
+        box_u0 = self.box_lo[0] - self.axis[0]
+        out = np.full(len(P), "beside", dtype=object)
+        lateral = np.abs(P[:, 1] - 0.5 * (self.box_lo[1] + self.box_hi[1])) <= 0.5 * (self.box_hi[1] - self.box_lo[1])
+        out[(u > self.r_neck)] = "behind"
+        out[(u >= box_u0) & (u <= -self.r_neck) & lateral & (z > 0)] = "above_box"
+        out[(u >= box_u0) & (u <= self.r_neck) & (z <= 0)] = "below_box_top"
+        out[(u < box_u0)] = "in_front"
+        return out
+
+
+def classify(cells: np.ndarray, occ, fine, rest, frame: Frame) -> Counter:
+    """Counter of 'state/truth/region' over blocking cells (K,3) [m]."""
+    if not len(cells):
+        return Counter()
+    st, _ = label_of(cells, occ, fine)
+    truth = np.where(_dists(cells, rest) <= 0.5 * math.sqrt(3.0) * occ.resolution, "obstacle", "free")
+    reg = frame.region(cells)
+    return Counter(f"{STATE[int(s)]}/{t}/{g}" for s, t, g in zip(st, truth, reg))
+
+
+def robot_cells(field, spheres, q):
+    return blocking_cells(field, spheres.sphere_centers(np.asarray(q)[None])[0], spheres.radii)
+
+
+def diagnose(level: int, index: int, seed: int, max_arm: int) -> dict:
+    cs = certified_scene(level, index, seed)
+    scene, cert = cs.scene, cs.certificate
+    world = World(scene)
+    try:
+        spheres = panda_sphere_model(world.robot)
+    finally:
+        world.close()
+    rec: dict = {"level": level, "index": index}
+    box = capture(scene, seed)
+    if "target" not in box:
+        rec["error"] = "no selection reached"
+        return rec
+    cfg: GraspSelectConfig = box["config"]
+    target, occ, q, fine, task = box["target"], box["occ"], box["q"], box.get("fine_map"), box["task"]
+    proposer = box.get("proposer") or AntipodalProposer(cfg.candidates)
+    sel = select_grasp(target, occ, task, q, spheres, cfg, copy.deepcopy(box["rng"]), proposer=proposer,
+                       extra_safe=box.get("extra_safe"), fine_map=fine)
+    rec["selection"] = {"failure": None if sel.failure is None else sel.failure.name,
+                        "rejections": {k.name: v for k, v in sel.rejections.items() if v}}
+    frame = Frame(scene)
+    rest = oracle.scene_obstacles(scene, exclude_target=True).arrays()
+    n = desired_approach(target, task)
+    rec["n"] = [round(float(x), 3) for x in n]
+    rec["model_top_vs_neck_top_cm"] = round(100 * (float(target.points[:, 2].max()) - frame.neck_top), 1)
+    cands = propose_in_cone(proposer, target, copy.deepcopy(box["rng"]), n, cfg.max_approach_angle)
+    within = np.nonzero(approach_angles(cands, n) <= cfg.max_approach_angle)[0]
+    T = cands.T_world_tcp[within]
+    p, z = T[:, :3, 3], T[:, :3, 2]
+    neck_z0 = float(scene.target.parts[1].pos[2] - scene.target.parts[1].half_extents[2])
+    on_neck = ((p[:, 2] >= neck_z0) & (p[:, 2] <= frame.neck_top)
+               & (np.linalg.norm(p[:, :2] - frame.axis, axis=1) <= frame.r_neck + 0.01) & (np.abs(z[:, 2]) <= 0.26))
+    cur = spheres.sphere_centers(np.asarray(q)[None])[0]
+    extra = base_volume_mask(spheres, occ) | box["extra_safe"]
+    ch = GraspChecks(occ, target, spheres, PandaIK(spheres.kinematics), cfg,
+                     (cur, spheres.radii + cfg.robot_clearance), extra, q, fine_map=fine)
+    rec["held_target_clear"] = {str(h): ch.held_target_clear(h) for h in cfg.lift_heights}
+    rec["model_back_minus_true_back_cm"] = round(100 * (float(target.points[:, 0].max())
+                                                        - float(scene.target.aabb()[1][0])), 1)
+    rec["model_centre_minus_axis_cm"] = [round(100 * float(v), 1) for v in target.centre[:2] - frame.axis]
+    local = rigid_hand_spheres(spheres)
+    at = hand_clear(ch.fine, T, local, cfg.voxel_extent)
+    pre = first_clear(ch.fine, T, local, pregrasp_steps(cfg.pregrasp_distances), cfg.voxel_extent)
+    lift = first_clear(ch.fine, T, local, lift_steps(cfg.lift_heights), cfg.voxel_extent)
+    gt_at = gt_free(rest, T, local)
+    stage = np.where(~at, "grasp", np.where(np.isnan(pre), "approach", np.where(np.isnan(lift), "lift", "passed")))
+    rec["in_cone"] = len(T)
+    rec["on_neck"] = int(on_neck.sum())
+    rec["on_neck_stage"] = dict(Counter(stage[on_neck]))
+    rec["on_neck_stage_gt_free_at_grasp"] = dict(Counter(stage[on_neck & gt_at]))
+    rec["tcp_below_neck_top_cm_on_neck"] = (np.percentile(100 * (frame.neck_top - p[on_neck, 2]), [0, 50, 100]).round(1)
+                                            .tolist() if on_neck.any() else None)
+    C, r = local
+    hand_cells, hand_links = Counter(), Counter()
+    for i in np.nonzero(on_neck & gt_at & (stage != "passed"))[0]:
+        poses = [T[i]]
+        if stage[i] == "approach":
+            poses = [offset_pose(T[i], -f * cfg.pregrasp_distances[-1]) for f in (0.25, 0.5, 0.75, 1.0)]
+        elif stage[i] == "lift":
+            poses = [offset_pose(T[i], up=h) for h in (0.025, cfg.lift_heights[-1])]
+        cs_ = [blocking_cells(ch.fine, C @ P[:3, :3].T + P[:3, 3], r)[0] for P in poses]
+        cells = np.unique(np.vstack(cs_), axis=0) if cs_ else np.zeros((0, 3))
+        hand_cells.update(classify(cells, occ, fine, rest, frame))
+    rec["hand_cells_gt_free_on_neck"] = dict(hand_cells.most_common(12))
+    # the arm stage on the on-neck hands that passed, in score order
+    gt = oracle.ground_truth_checker(scene, exclude_target=True)
+    lift_clear = {h: ch.held_target_clear(h) for h in cfg.lift_heights}
+    passed = np.nonzero(on_neck & (stage == "passed"))[0]
+    passed = passed[np.argsort(-cands.score[within[passed]], kind="stable")][:max_arm]
+    arm, arm_cells, arm_links = Counter(), Counter(), Counter()
+    for i in passed:
+        qs, why, _, _ = ch.check_shorter(T[i], q, pre[i], lift[i], lift_clear)
+        arm[why or "ok"] += 1
+        if why is None or why == "NO_IK":
+            continue
+        sol = ch.ik_first(T[i], q).solutions
+        good = sol[gt.are_valid(sol)]
+        if not len(good):
+            arm[f"{why}:no_gt_free_ik"] += 1
+            continue
+        qg = good[0]
+        bad_q = qg if not ch.valid(qg[None])[0] else None
+        if bad_q is None:
+            for Tq in (offset_pose(T[i], -cfg.pregrasp_distances[-1]), offset_pose(T[i], up=cfg.lift_heights[-1])):
+                qn = ch.near(Tq, qg, None)
+                if qn is not None and not ch.valid(qn[None])[0]:
+                    bad_q = qn
+                    break
+        if bad_q is None:
+            arm[f"{why}:no_invalid_config_found"] += 1
+            continue
+        cells, failing = robot_cells(ch.fine, spheres, bad_q)
+        arm_links.update({spheres.link_names[spheres.body_index[k]] for k in failing})
+        arm_cells.update(classify(cells, occ, fine, rest, frame))
+    rec["arm_on_neck"] = dict(arm)
+    rec["arm_links"] = dict(arm_links)
+    rec["arm_cells"] = dict(arm_cells.most_common(12))
+    # the certified grasp
+    if cert.path is not None and len(cert.path_marks) >= 4:
+        marks = dict(zip(("view", "pregrasp", "grasp", "lift"), cert.path_marks))
+        qg = np.array(cert.path[marks["grasp"]])
+        Tc = spheres.kinematics.T_world_tcp(qg)
+        cert_rec = {"angle_to_n_deg": round(math.degrees(math.acos(np.clip(Tc[:3, 2] @ n, -1, 1))), 1),
+                    "tcp_below_neck_top_cm": round(100 * (frame.neck_top - Tc[2, 3]), 1),
+                    "hand_at": bool(hand_clear(ch.fine, Tc[None], local)[0]),
+                    "hand_pre": float(first_clear(ch.fine, Tc[None], local, pregrasp_steps(cfg.pregrasp_distances))[0]),
+                    "hand_lift": float(first_clear(ch.fine, Tc[None], local, lift_steps(cfg.lift_heights))[0])}
+        cells = np.zeros((0, 3))
+        for name in ("pregrasp", "grasp", "lift"):
+            qc = np.array(cert.path[marks[name]])
+            ok = bool(ch.valid(qc[None])[0])
+            cert_rec[f"q_{name}_valid"] = ok
+            if not ok:
+                c, failing = robot_cells(ch.fine, spheres, qc)
+                cert_rec[f"q_{name}_links"] = sorted({spheres.link_names[spheres.body_index[k]] for k in failing})
+                cells = np.vstack([cells, c])
+        if not cert_rec["hand_at"]:
+            cells = np.vstack([cells, blocking_cells(ch.fine, C @ Tc[:3, :3].T + Tc[:3, 3], r)[0]])
+        cert_rec["cells"] = dict(classify(np.unique(cells, axis=0), occ, fine, rest, frame).most_common(10))
+        rec["cert"] = cert_rec
+    return rec
+
+
+def main() -> int:
+    ap = scene_arguments(argparse.ArgumentParser())
+    ap.add_argument("--max-arm", type=int, default=60, help="on-neck hands passed to the arm stage per scene")
+    ap.add_argument("--only", default=None, help="comma-separated L:I pairs (default all)")
+    args = ap.parse_args()
+    only = None if args.only is None else {tuple(int(x) for x in s.split(":")) for s in args.only.split(",")}
+    for level in args.levels:
+        for index in range(args.start, args.start + args.count):
+            if only is None or (level, index) in only:
+                print(json.dumps(diagnose(level, index, args.seed, args.max_arm)), flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
