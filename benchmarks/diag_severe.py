@@ -46,33 +46,14 @@ from compass_manip.grasp.select import (GraspSelectConfig, approach_angles, base
 from compass_manip.mapping.occupancy import VoxelState
 from compass_manip.robot.ik import PandaIK
 from compass_manip.robot.spheres import panda_sphere_model
-from compass_manip.sim import grasp_only, oracle
+from compass_manip.sim import oracle
 from compass_manip.sim.certify import certified_scene
 from compass_manip.sim.world import World
 from diag_grasp_certified import _dists, blocking_cells
-from diag_hand_rejections import gt_free, label_of, scene_arguments
+from diag_hand_rejections import capture, gt_free, label_of, scene_arguments
 
 STATE = {int(VoxelState.UNKNOWN): "unknown", int(VoxelState.OCCUPIED): "occupied", int(VoxelState.FREE): "free",
          -1: "outside"}
-
-
-def capture(scene, seed: int) -> dict:
-    """The harness's inputs to select_grasp (the run stops there)."""
-    box: dict = {}
-    orig = grasp_only.select_grasp
-
-    def sel(target, occ, task, q, sph, config, rng, **kw):
-        box.update(target=target, occ=occ, task=task, q=q, config=config, rng=copy.deepcopy(rng), **kw)
-        raise StopIteration
-
-    grasp_only.select_grasp = sel
-    try:
-        grasp_only.run_grasp_only(scene, seed=seed)
-    except StopIteration:
-        pass
-    finally:
-        grasp_only.select_grasp = orig
-    return box
 
 
 class Frame:
