@@ -143,14 +143,19 @@ def classify(cells, scene, occ, fine, T_ref, bottom_z) -> dict:
     return rec
 
 
-def diagnose(level: int, index: int, seed: int) -> dict:
+def scene_spheres(level: int, index: int, seed: int):
+    """(the certified scene, the planner's sphere model of its robot)."""
     cs = certified_scene(level, index, seed)
-    scene, cert = cs.scene, cs.certificate
-    world = World(scene)
+    world = World(cs.scene)
     try:
-        spheres = panda_sphere_model(world.robot)
+        return cs, panda_sphere_model(world.robot)
     finally:
         world.close()
+
+
+def diagnose(level: int, index: int, seed: int) -> dict:
+    cs, spheres = scene_spheres(level, index, seed)
+    scene, cert = cs.scene, cs.certificate
     q_g = np.array(cert.path[cert.path_marks[2]])
     T_c = spheres.kinematics.T_world_tcp(q_g)
     box = capture_inputs(scene, seed)

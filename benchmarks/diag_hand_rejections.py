@@ -46,11 +46,8 @@ from compass_manip.grasp.select import GraspSelectConfig, approach_angles, base_
 from compass_manip.mapping.occupancy import VoxelState
 from compass_manip.motion.primitives import PrimitiveSet
 from compass_manip.robot.ik import PandaIK
-from compass_manip.robot.spheres import panda_sphere_model
 from compass_manip.sim import grasp_only, oracle
-from compass_manip.sim.certify import certified_scene
-from compass_manip.sim.world import World
-from diag_grasp_certified import _dists, blocking_cells
+from diag_grasp_certified import _dists, blocking_cells, scene_spheres
 
 KINDS = ("unknown_free", "unknown_obstacle", "occupied_target", "occupied_resolution", "occupied_map_error",
          "outside")
@@ -124,12 +121,8 @@ def shadowed(cells, cam, tgt, n: int = 24) -> np.ndarray:
 
 
 def diagnose(level: int, index: int, seed: int) -> dict:
-    scene = certified_scene(level, index, seed).scene
-    world = World(scene)
-    try:
-        spheres = panda_sphere_model(world.robot)
-    finally:
-        world.close()
+    cs, spheres = scene_spheres(level, index, seed)
+    scene = cs.scene
     box = capture(scene, seed)
     rec = {"level": level, "index": index}
     if "target" not in box:

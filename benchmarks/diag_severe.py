@@ -45,11 +45,8 @@ from compass_manip.grasp.select import (GraspSelectConfig, approach_angles, base
                                         select_grasp)
 from compass_manip.mapping.occupancy import VoxelState
 from compass_manip.robot.ik import PandaIK
-from compass_manip.robot.spheres import panda_sphere_model
 from compass_manip.sim import oracle
-from compass_manip.sim.certify import certified_scene
-from compass_manip.sim.world import World
-from diag_grasp_certified import _dists, blocking_cells
+from diag_grasp_certified import _dists, blocking_cells, scene_spheres
 from diag_hand_rejections import capture, gt_free, label_of, scene_arguments
 
 STATE = {int(VoxelState.UNKNOWN): "unknown", int(VoxelState.OCCUPIED): "occupied", int(VoxelState.FREE): "free",
@@ -99,13 +96,8 @@ def robot_cells(field, spheres, q):
 
 
 def diagnose(level: int, index: int, seed: int, max_arm: int) -> dict:
-    cs = certified_scene(level, index, seed)
+    cs, spheres = scene_spheres(level, index, seed)
     scene, cert = cs.scene, cs.certificate
-    world = World(scene)
-    try:
-        spheres = panda_sphere_model(world.robot)
-    finally:
-        world.close()
     rec: dict = {"level": level, "index": index}
     box = capture(scene, seed)
     if "target" not in box:

@@ -28,6 +28,7 @@ from numba import njit, prange
 
 from ..errors import CompassInputError
 from ..mapping.distance import DistanceField, _distances
+from ..mapping.observe import integrate_observation
 from ..mapping.occupancy import MapConfig, OccupancyMap, VoxelState
 from .carve import target_carve
 
@@ -197,6 +198,28 @@ def local_fine_map(occ: OccupancyMap, lo: np.ndarray, hi: np.ndarray, upsample: 
     if fine.shape != tuple(upsample * (b - a)) or not np.allclose(fine.grid_min, occ.grid_min + a * res):
         raise CompassInputError("the fine map's grid does not align with the map's voxels")
     return fine
+
+
+class FineMaps:
+    """`local_fine_map`s of `occ`'s depth frames kept per box: `get(lo, hi, upsample, frames)`
+    integrates into the box's map only the frames (a list in order, growing) it has not yet
+    taken, so it equals integrating all of them afresh (frames go in in order); spheres: the
+    robot model of the self filter; max_range [m] of the sensor."""
+
+    def __init__(self, occ: OccupancyMap, spheres, max_range: float) -> None:
+        self.occ, self.spheres, self.max_range = occ, spheres, float(max_range)
+        self._maps: dict = {}  # (lo, hi, upsample) -> [fine map, frames integrated into it]
+
+    def get(self, lo: np.ndarray, hi: np.ndarray, upsample: int, frames: list) -> OccupancyMap:
+        lo, hi = np.asarray(lo, dtype=np.float64), np.asarray(hi, dtype=np.float64)
+        key = (tuple(np.round(lo, 9)), tuple(np.round(hi, 9)), int(upsample))
+        if key not in self._maps:
+            self._maps[key] = [local_fine_map(self.occ, lo, hi, upsample), 0]
+        entry = self._maps[key]
+        for obs in frames[entry[1]:]:
+            integrate_observation(entry[0], obs, self.spheres, self.max_range)
+        entry[1] = len(frames)
+        return entry[0]
 
 
 def fine_map_range(occ: OccupancyMap, fine: OccupancyMap) -> tuple[np.ndarray, np.ndarray, int]:

@@ -17,7 +17,7 @@ import numpy as np
 
 from ..errors import CompassInputError
 from ..exploration.world_model import WorldModelConfig, mark_configs, method_safe_voxels, outside_space_mask
-from ..grasp.field import local_fine_map
+from ..grasp.field import FineMaps
 from ..mapping.distance import DistanceField
 from ..mapping.observe import integrate_observation
 from ..mapping.occupancy import OccupancyMap, VoxelState
@@ -43,7 +43,7 @@ class HarnessModel:
         self.occ, self.spheres = occ, spheres
         self.frames = None if frames is None else list(frames)
         self.max_range, self.fine_margin, self.upsample = float(max_range), float(fine_margin), int(upsample)
-        self._fine: dict = {}
+        self._fine = FineMaps(occ, spheres, self.max_range)
         self.config = config or WorldModelConfig()
         self.kin = PandaKinematics(robot)
         self.swept_all = np.zeros(occ.shape, bool)
@@ -82,15 +82,8 @@ class HarnessModel:
         if not self.frames:
             return None
         pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-        lo, hi = pts.min(0) - self.fine_margin, pts.max(0) + self.fine_margin
-        key = (tuple(np.round(lo, 9)), tuple(np.round(hi, 9)))
-        if key not in self._fine:
-            self._fine[key] = [local_fine_map(self.occ, lo, hi, self.upsample), 0]
-        entry = self._fine[key]
-        for f in self.frames[entry[1]:]:
-            integrate_observation(entry[0], f, self.spheres, self.max_range)
-        entry[1] = len(self.frames)
-        return entry[0]
+        return self._fine.get(pts.min(0) - self.fine_margin, pts.max(0) + self.fine_margin, self.upsample,
+                              self.frames)
 
 
 @dataclass(frozen=True, eq=False)

@@ -18,7 +18,7 @@ import numpy as np
 
 from ..errors import CompassInputError
 from ..exploration.world_model import mark_configs, start_shell
-from ..grasp.field import local_fine_map
+from ..grasp.field import FineMaps
 from ..mapping.observe import integrate_observation
 from ..mapping.occupancy import MapConfig, OccupancyMap, VoxelState
 from ..motion.timing import densify
@@ -48,7 +48,7 @@ class GraspMap(TrialObserver):
         self.task, self.start_body_margin = task, start_body_margin
         self.swept_all = np.zeros(self.occ.shape, bool)
         self._way: list[np.ndarray] = []
-        self._fine: dict = {}  # (box, upsample) -> [fine map, frames integrated into it]
+        self._fine = FineMaps(self.occ, self.spheres, max_range)  # one fine map per box, kept
 
     def _mark(self, Q: np.ndarray, margin: float) -> None:
         mark_configs(self.swept_all, self.occ, self.spheres, Q, margin)
@@ -96,15 +96,7 @@ class GraspMap(TrialObserver):
         into it (the same map as integrating all of them afresh: frames go in in order)."""
         if not self.keep_frames:
             raise CompassInputError("GraspMap.fine_map needs keep_frames=True (no frames were kept)")
-        key = (tuple(np.round(np.asarray(lo, dtype=np.float64), 9)), tuple(np.round(np.asarray(hi, dtype=np.float64), 9)),
-               int(upsample))
-        if key not in self._fine:
-            self._fine[key] = [local_fine_map(self.occ, lo, hi, upsample), 0]
-        entry = self._fine[key]
-        for obs in self.frames[entry[1]:]:
-            integrate_observation(entry[0], obs, self.spheres, self.max_range)
-        entry[1] = len(self.frames)
-        return entry[0]
+        return self._fine.get(lo, hi, upsample, self.frames)
 
 
 class GraspWorld:
