@@ -33,3 +33,36 @@ def test_swept_space_equals_every_sphere_marked():
         np.testing.assert_array_equal(wm.swept, ref)
         q = path[-1]
     assert ref.sum() > 1000
+
+
+def test_mark_in_spheres_equals_every_voxel_tested_and_keeps_what_was_set():
+    from compass_manip.exploration.world_model import mark_spheres
+    from compass_manip.mapping.distance import mark_in_spheres
+    rng = np.random.default_rng(3)
+    grid_min, res = np.array([-0.3, -0.2, 0.1]), 0.01
+    for trial in range(4):
+        base = rng.random((50, 40, 30)) < 0.02  # voxels set before stay set
+        c = rng.uniform([-0.35, -0.25, 0.05], [0.25, 0.25, 0.45], (300, 3))
+        r = rng.uniform(0.0, 0.12, 300)
+        r[:5] = 0.005 * np.arange(5)  # spheres smaller than a voxel, or of radius 0
+        c[5:8] = grid_min + (np.array([[3, 4, 5], [10, 10, 10], [0, 0, 0]]) + 0.5) * res  # on voxel centres
+        ref, fast = base.copy(), base.copy()
+        mark_spheres(ref, grid_min, res, c, r)
+        mark_in_spheres(fast, grid_min, res, c, r)
+        np.testing.assert_array_equal(fast, ref)
+        assert ref.sum() > base.sum() + 100
+
+
+def test_mark_robot_equals_mark_configs_on_a_1cm_grid():
+    from compass_manip.mapping.distance import mark_robot
+    from compass_manip.mapping.occupancy import MapConfig, OccupancyMap
+    occ = OccupancyMap(MapConfig())
+    wm = WorldModel(np.asarray(RobotConfig().q_home, float))
+    rng = np.random.default_rng(11)
+    Q = np.clip(np.asarray(RobotConfig().q_home, float) + np.cumsum(rng.uniform(-0.1, 0.1, (40, 7)), axis=0),
+                Q_MIN + 0.01, Q_MAX - 0.01)
+    ref, fast = np.zeros(occ.shape, bool), np.zeros(occ.shape, bool)
+    mark_configs(ref, occ, wm.spheres, Q, 0.05)
+    mark_robot(fast, occ, wm.spheres, Q, 0.05)
+    np.testing.assert_array_equal(fast, ref)
+    assert ref.sum() > 10000

@@ -16,9 +16,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import CompassInputError
-from ..exploration.world_model import WorldModelConfig, mark_configs, method_safe_voxels, outside_space_mask
+from ..exploration.world_model import WorldModelConfig, method_safe_voxels, outside_space_mask
 from ..grasp.field import FineMaps
-from ..mapping.distance import DistanceField
+from ..mapping.distance import DistanceField, mark_robot
 from ..mapping.observe import integrate_observation
 from ..mapping.occupancy import OccupancyMap, VoxelState
 from ..motion.primitives import DistanceGrid
@@ -52,7 +52,7 @@ class HarnessModel:
 
     def add_swept(self, Q: np.ndarray) -> None:
         """Mark the spheres of configurations Q (m,7) [rad], grown by margin, as the robot's."""
-        mark_configs(self.swept_all, self.occ, self.spheres, Q, self.config.swept_margin)
+        mark_robot(self.swept_all, self.occ, self.spheres, Q, self.config.swept_margin)
         self._checker = None
 
     @property

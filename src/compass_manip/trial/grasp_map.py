@@ -17,8 +17,9 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import CompassInputError
-from ..exploration.world_model import mark_configs, start_shell
+from ..exploration.world_model import start_shell
 from ..grasp.field import FineMaps
+from ..mapping.distance import mark_robot
 from ..mapping.observe import integrate_observation
 from ..mapping.occupancy import MapConfig, OccupancyMap, VoxelState
 from ..motion.timing import densify
@@ -51,7 +52,7 @@ class GraspMap(TrialObserver):
         self._fine = FineMaps(self.occ, self.spheres, max_range)  # one fine map per box, kept
 
     def _mark(self, Q: np.ndarray, margin: float) -> None:
-        mark_configs(self.swept_all, self.occ, self.spheres, Q, margin)
+        mark_robot(self.swept_all, self.occ, self.spheres, Q, margin)
 
     @property
     def swept(self) -> np.ndarray:

@@ -29,8 +29,9 @@ from ..robot.ik import PandaIK
 from ..grasp.candidates import AntipodalProposer, GraspCandidates, PinnedProposer
 from ..grasp.robot_space import base_volume_mask
 from ..grasp.select import GraspFailure, GraspSelection, select_grasp
-from ..exploration.world_model import assumed_free_mask, mark_configs, method_safe_voxels
+from ..exploration.world_model import assumed_free_mask, method_safe_voxels
 from ..grasp.target import build_target_model
+from ..mapping.distance import mark_robot
 from ..mapping.occupancy import VoxelState
 from ..robot.spheres import panda_sphere_model
 from ..sim.grasp_exec import ExecFailure, GraspOutcome, execute_grasp
@@ -104,7 +105,7 @@ def own_space(occ, spheres, moved: list[np.ndarray], config) -> np.ndarray:
     if moved:
         Q = np.vstack([np.asarray(p, dtype=np.float64).reshape(-1, 7) for p in moved])
         Q = Q[:: max(1, len(Q) // config.max_moved_configs)]
-        mark_configs(own, occ, spheres, Q, config.moved_margin)
+        mark_robot(own, occ, spheres, Q, config.moved_margin)
         own &= occ.state != VoxelState.OCCUPIED
     return own
 
@@ -197,7 +198,7 @@ def run_grasp_stage(world, occupancy, detection, task, q_current: np.ndarray, mo
         aimed, unseen = None, False
         while True:  # the grasp's own motions first, then a transfer through space seen free
             own = own_now() | base_volume_mask(spheres, occupancy)
-            mark_configs(own, occupancy, spheres, q[None], config.select.robot_clearance)
+            mark_robot(own, occupancy, spheres, q[None], config.select.robot_clearance)
             if verify.trust_outside_space and method_rules is not None:  # the baselines' rule, not Omega_safe's
                 rule = replace(method_rules, near_base_box=None)
                 own |= method_safe_voxels(occupancy, own, assumed_free_mask(occupancy, task, rule), rule.obstacle_halo)

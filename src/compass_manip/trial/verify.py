@@ -30,9 +30,9 @@ import numpy as np
 
 from ..errors import CompassInputError
 from ..exploration.viewpoints import sample_direction_in_cone, view_pose
-from ..exploration.world_model import mark_spheres
 from ..grasp.candidates import propose_in_cone
 from ..grasp.carve import target_carve
+from ..mapping.distance import mark_robot
 from ..mapping.occupancy import OccupancyMap, VoxelState
 from ..motion.planner import PlannerConfig
 from ..motion.timing import densify
@@ -129,10 +129,8 @@ def transfer_path(selection, step: float) -> np.ndarray:
 def swept_mask(occ: OccupancyMap, spheres, Q: np.ndarray, inflate: float) -> np.ndarray:
     """(nx, ny, nz) bool: voxels whose centres lie inside a sphere of the model grown by
     inflate [m] at any configuration of Q (m, 7) [rad]."""
-    Q = np.asarray(Q, dtype=np.float64).reshape(-1, 7)
     out = np.zeros(occ.shape, bool)
-    c = np.ascontiguousarray(spheres.sphere_centers(Q).reshape(-1, 3))
-    mark_spheres(out, occ.grid_min, occ.resolution, c, np.tile(spheres.radii + inflate, len(Q)))
+    mark_robot(out, occ, spheres, Q, inflate)
     return out
 
 
