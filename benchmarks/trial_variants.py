@@ -160,3 +160,16 @@ def grasp_look_outside_long_config() -> TrialConfig:
 
 def grasp_look_outside_long(spec) -> tuple[dict, dict]:
     return _run(spec, grasp_look_outside_long_config())
+
+
+def grasp_look_assumed_config() -> TrialConfig:
+    """The defaults, and a best-effort look at the space the chosen manoeuvre crosses on the
+    near-body assumption before executing it (`VerifyConfig(assumed_only=True, refuse=False)`):
+    a look that shows a blocker sends the stage to the next candidate; voxels no view sees are
+    crossed as without looking."""
+    return TrialConfig(grasp=replace(TrialConfig().grasp, verify=VerifyConfig(
+        assumed_only=True, refuse=False, strict_first=False)))
+
+
+def grasp_look_assumed(spec) -> tuple[dict, dict]:
+    return _run(spec, grasp_look_assumed_config())

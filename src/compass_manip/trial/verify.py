@@ -67,10 +67,20 @@ class VerifyConfig:
     and the method's space_margin, down to the floor) and beyond the method's obstacle halo from
     anything seen needs no look either: the rule the exploration baselines move on
     (`exploration.world_model.assumed_free_mask` without `near_base_box`; COMPASS itself keeps
-    Omega_safe around the base unsafe until seen). Weaker than "seen free"; off by default."""
+    Omega_safe around the base unsafe until seen). Weaker than "seen free"; off by default.
+    assumed_only: only the swept voxels the grasp stage took as free by an assumption (the
+    near-body / outside rules, `grasp_stage.assumed_unknown_free`) are looked at; the target's
+    carve and the checker's margin around its bound are not (a look at the arm's own way:
+    the space beside and in front of the base that the chosen manoeuvre crosses).
+    refuse: when voxels stay unknown (no view plans, a look sees none of them, the budget is
+    spent) the grasp is refused (`GRASP_UNVERIFIED`); False: it is executed as chosen, as
+    without looking - the look is best effort, it only adds the blockers it shows (a
+    manoeuvre whose swept voxels a look saw occupied is never executed: it is chosen again)."""
 
     strict_first: bool = True
     trust_outside_space: bool = False
+    assumed_only: bool = False
+    refuse: bool = True
     max_views: int = 6
     max_rounds: int = 4
     inflate: float = 0.009
