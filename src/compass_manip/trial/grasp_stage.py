@@ -227,7 +227,19 @@ def run_grasp_stage(world, occupancy, detection, task, q_current: np.ndarray, mo
                 if verify.refuse:  # the last look saw none of them: choose again without them
                     stuck[tuple(aimed.T)] = unseen = True
                 break  # (best effort: executed as chosen)
-            if len(unknown) == 0:
+            if verify.assumed_only:  # best effort: the transfer's assumed voxels are looked at with the grasp's
+                t_unknown = needs_look(swept_unknown(occupancy, spheres, transfer_path(sel, verify.step),
+                                                     verify.inflate, own), assumed, verify)
+                if len(t_unknown):  # through the space seen free and the robot's own, if one plans
+                    strict_path = strict_transfer(occupancy, target, spheres, q, sel.q_pregrasp, own, config, fine, rng)
+                    log[-1]["strict_path"] = strict_path is not None
+                    if strict_path is not None:
+                        sel, t_unknown = replace(sel, path=strict_path), t_unknown[:0]
+                unknown = np.unique(np.vstack([unknown, t_unknown]), axis=0)
+                log[-1]["unknown_all"] = int(len(unknown))
+                if len(unknown) == 0:
+                    break
+            elif len(unknown) == 0:
                 strict_path = strict_transfer(occupancy, target, spheres, q, sel.q_pregrasp, own, config, fine, rng)
                 log[-1]["strict_path"] = strict_path is not None
                 if strict_path is not None:

@@ -75,7 +75,10 @@ class VerifyConfig:
     refuse: when voxels stay unknown (no view plans, a look sees none of them, the budget is
     spent) the grasp is refused (`GRASP_UNVERIFIED`); False: it is executed as chosen, as
     without looking - the look is best effort, it only adds the blockers it shows (a
-    manoeuvre whose swept voxels a look saw occupied is never executed: it is chosen again)."""
+    manoeuvre whose swept voxels a look saw occupied is never executed: it is chosen again).
+    With assumed_only the transfer's voxels are looked at together with the approach's and
+    lift's (without it only once those are all seen), after trying a transfer through the
+    space seen free and the robot's own (`grasp_stage.strict_transfer`)."""
 
     strict_first: bool = True
     trust_outside_space: bool = False
