@@ -173,5 +173,16 @@ def grasp_look_assumed_config() -> TrialConfig:
         assumed_only=True, refuse=False, strict_first=False, min_seen=50)))
 
 
+def grasp_look_outward_config() -> TrialConfig:
+    """grasp_look_assumed with a third of the look directions pointing away from the base
+    (`VerifyConfig.outward`): views of the space beside the body from between it and the base."""
+    return TrialConfig(grasp=replace(TrialConfig().grasp, verify=VerifyConfig(
+        assumed_only=True, refuse=False, strict_first=False, min_seen=50, outward=True)))
+
+
+def grasp_look_outward(spec) -> tuple[dict, dict]:
+    return _run(spec, grasp_look_outward_config())
+
+
 def grasp_look_assumed(spec) -> tuple[dict, dict]:
     return _run(spec, grasp_look_assumed_config())

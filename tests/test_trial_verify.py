@@ -299,3 +299,13 @@ def test_a_best_effort_look_that_shows_a_blocker_chooses_again_and_never_execute
     # the look showed a blocker: chosen again on the new map (the selection is trusted with it), then executed
     assert len(looker_calls) == 1 and len(selections) == 2 and len(stage.ran) == 1
     assert [e["round"] for e in r.look_log] == [0, 0, 1] and r.look_log[1]["occupied"] > 0
+
+
+def test_outward_look_directions_add_views_from_the_base_side():
+    from compass_manip.trial.verify import look_axis
+    tb = np.array([0.0, 0.5, 0.1])
+    plain = [look_axis(k, tb, False) for k in range(6)]
+    out = [look_axis(k, tb, True) for k in range(6)]
+    assert not any(np.allclose(a, -tb) for a in plain) and sum(np.allclose(a, tb) for a in plain) == 3
+    assert sum(np.allclose(a, -tb) for a in out) == 2 and sum(np.allclose(a, tb) for a in out) == 2
+    assert sum(np.allclose(a, [0.0, 0.0, -1.0]) for a in out) == 2
