@@ -21,6 +21,9 @@
 * grasp_look_outside: as grasp_look, unknown space outside the confined space's box (down to
   the floor) and beyond the obstacle halo trusted at execution (`VerifyConfig.trust_outside_space`).
 * grasp_look_outside_long: as grasp_look_outside with up to 12 look views.
+* grasp_look_assumed: the defaults with a best-effort look at the swept space the near-body
+  assumption took as free (`VerifyConfig(assumed_only=True, refuse=False)`, branch e2e4).
+* grasp_look_outward: as grasp_look_assumed, a third of the look directions away from the base.
 * find_only: no GRASP state (the trial ends at FOUND), as `compass run --find-only`.
 """
 from __future__ import annotations
