@@ -309,3 +309,22 @@ def test_outward_look_directions_add_views_from_the_base_side():
     assert not any(np.allclose(a, -tb) for a in plain) and sum(np.allclose(a, tb) for a in plain) == 3
     assert sum(np.allclose(a, -tb) for a in out) == 2 and sum(np.allclose(a, tb) for a in out) == 2
     assert sum(np.allclose(a, [0.0, 0.0, -1.0]) for a in out) == 2
+
+
+def test_a_look_that_shows_the_transfer_blocked_sends_the_stage_to_choose_again(stage, monkeypatch):
+    selections = []
+    orig = grasp_stage.select_grasp
+    monkeypatch.setattr(grasp_stage, "select_grasp", lambda *a, **k: selections.append(1) or orig(*a, **k))
+    occ = stage.occ
+    Qt = transfer_path(SimpleNamespace(path=_path(), q_pregrasp=_path()[-1]), 0.02)
+    inside = swept_mask(occ, SPHERES, Qt, 0.0) & ~swept_mask(occ, SPHERES, _path()[-1:], 0.03)  # transfer only
+    occ.state[:] = VoxelState.FREE
+    occ.state[inside] = VoxelState.UNKNOWN
+
+    def look(p, count=True):  # the look sees the transfer's unknown voxels occupied
+        if count:
+            occ.state[inside] = VoxelState.OCCUPIED
+        return LookOutcome.MOVED
+    r = stage.run(GraspTrialConfig(near_body_free=False, verify=VerifyConfig(max_views=3, strict_first=False)), look)
+    assert r.look_log[0]["unknown_grasp"] == 0 and r.look_log[0]["unknown_all"] > 0
+    assert r.look_log[1]["occupied"] > 0 and len(selections) == 2  # blocked: chosen again on the new map
