@@ -250,3 +250,81 @@ def test_the_methods_swept_space_is_the_robots_own_but_not_where_it_was_seen_occ
     stage.occ.state[3, 4, 5] = VoxelState.OCCUPIED  # seen occupied: never the robot's own
     stage.run(config, lambda p, count=True: LookOutcome.NONE, method_swept=everywhere)
     assert not safe[0][3, 4, 5] and np.count_nonzero(~safe[0]) == 1
+
+
+def test_a_best_effort_look_sees_only_the_assumed_space_and_never_refuses_for_the_unseen(stage):
+    calls = []
+    best = VerifyConfig(max_views=2, assumed_only=True, refuse=False, strict_first=False)
+    r = stage.run(GraspTrialConfig(near_body_free=False, verify=best), lambda p, count=True: calls.append(p))
+    assert r.failure is None and len(stage.ran) == 1 and not calls  # nothing taken as free by assumption: no look
+    r = stage.run(GraspTrialConfig(near_body_free=True, verify=best),
+                  lambda p, count=True: calls.append(count) or LookOutcome.NONE)  # no view can be reached
+    assert r.failure is None and len(stage.ran) == 2 and calls == [True]  # looked once, executed as chosen
+    # the transfer's assumed voxels are aimed at with the approach's and lift's, not after them
+    assert r.look_log[0]["unknown_all"] > r.look_log[0]["unknown_grasp"] > 0
+    strict = VerifyConfig(max_views=2, assumed_only=True, strict_first=False)
+    r = stage.run(GraspTrialConfig(near_body_free=True, verify=strict), lambda p, count=True: LookOutcome.NONE)
+    assert r.failure is TrialFailure.GRASP_UNVERIFIED and len(stage.ran) == 2  # refused (the old rule)
+    r = stage.run(GraspTrialConfig(near_body_free=True, verify=best),
+                  lambda p, count=True: LookOutcome.MOVED)  # looks that see nothing: executed after the first
+    assert r.failure is None and len(stage.ran) == 3 and r.n_looks == 1 and "unseen" in r.look_log[-1]
+
+
+def test_a_best_effort_look_that_shows_a_blocker_chooses_again_and_never_executes_it(stage, monkeypatch):
+    selections = []
+    orig = grasp_stage.select_grasp
+    monkeypatch.setattr(grasp_stage, "select_grasp", lambda *a, **k: selections.append(1) or orig(*a, **k))
+    best = VerifyConfig(max_views=4, max_rounds=3, assumed_only=True, refuse=False, strict_first=False)
+    aimed = []
+
+    def look(p, count=True):  # the look sees the voxels it aimed at occupied, the rest free
+        if count:
+            stage.occ.state[stage.occ.state == VoxelState.UNKNOWN] = VoxelState.FREE
+            stage.occ.state[tuple(aimed[-1].T)] = VoxelState.OCCUPIED
+        return LookOutcome.MOVED
+    looker_calls = []
+
+    def run():
+        world = SimpleNamespace(robot=ROBOT, q=Q_HOME.copy())
+        det = SimpleNamespace(points_world=np.zeros((20, 3)) + 0.5, T_world_cam=np.eye(4))
+
+        def looker(q, occ_, centres, way=None):
+            aimed.append(occ_.world_to_voxel(centres))
+            looker_calls.append(1)
+            return SimpleNamespace(path=np.stack([q, q]), planned=True, gain=5, n_valid=1, plan_time_s=0.0)
+        return grasp_stage.run_grasp_stage(world, stage.occ, det, SimpleNamespace(target=None), Q_HOME, [],
+                                           GraspTrialConfig(near_body_free=True, verify=best),
+                                           np.random.default_rng(0), 0.1, looker=looker, look=look)
+    r = run()
+    # the look showed a blocker: chosen again on the new map (the selection is trusted with it), then executed
+    assert len(looker_calls) == 1 and len(selections) == 2 and len(stage.ran) == 1
+    assert [e["round"] for e in r.look_log] == [0, 0, 1] and r.look_log[1]["occupied"] > 0
+
+
+def test_outward_look_directions_add_views_from_the_base_side():
+    from compass_manip.trial.verify import look_axis
+    tb = np.array([0.0, 0.5, 0.1])
+    plain = [look_axis(k, tb, False) for k in range(6)]
+    out = [look_axis(k, tb, True) for k in range(6)]
+    assert not any(np.allclose(a, -tb) for a in plain) and sum(np.allclose(a, tb) for a in plain) == 3
+    assert sum(np.allclose(a, -tb) for a in out) == 2 and sum(np.allclose(a, tb) for a in out) == 2
+    assert sum(np.allclose(a, [0.0, 0.0, -1.0]) for a in out) == 2
+
+
+def test_a_look_that_shows_the_transfer_blocked_sends_the_stage_to_choose_again(stage, monkeypatch):
+    selections = []
+    orig = grasp_stage.select_grasp
+    monkeypatch.setattr(grasp_stage, "select_grasp", lambda *a, **k: selections.append(1) or orig(*a, **k))
+    occ = stage.occ
+    Qt = transfer_path(SimpleNamespace(path=_path(), q_pregrasp=_path()[-1]), 0.02)
+    inside = swept_mask(occ, SPHERES, Qt, 0.0) & ~swept_mask(occ, SPHERES, _path()[-1:], 0.03)  # transfer only
+    occ.state[:] = VoxelState.FREE
+    occ.state[inside] = VoxelState.UNKNOWN
+
+    def look(p, count=True):  # the look sees the transfer's unknown voxels occupied
+        if count:
+            occ.state[inside] = VoxelState.OCCUPIED
+        return LookOutcome.MOVED
+    r = stage.run(GraspTrialConfig(near_body_free=False, verify=VerifyConfig(max_views=3, strict_first=False)), look)
+    assert r.look_log[0]["unknown_grasp"] == 0 and r.look_log[0]["unknown_all"] > 0
+    assert r.look_log[1]["occupied"] > 0 and len(selections) == 2  # blocked: chosen again on the new map

@@ -98,6 +98,14 @@ def assumed_unknown_free(occ, config, spheres, q_home: np.ndarray, task, rules) 
     return out
 
 
+def needs_look(unknown: np.ndarray, assumed: np.ndarray, verify) -> np.ndarray:
+    """(N, 3) voxel indices of `unknown` (swept unknown voxels) a look must see before the
+    manoeuvre runs: all of them, or with `verify.assumed_only` those the stage took as free by
+    an assumption (`assumed`, a mask of the map's shape; `assumed_unknown_free`)."""
+    unknown = np.asarray(unknown, dtype=np.int64).reshape(-1, 3)
+    return unknown[assumed[tuple(unknown.T)]] if verify.assumed_only else unknown
+
+
 def own_space(occ, spheres, moved: list[np.ndarray], config) -> np.ndarray:
     """(nx, ny, nz) bool: the robot's executed way (`moved`, joint paths (m,7) [rad], at most
     max_moved_configs of them, spheres grown by moved_margin [m]) less the voxels seen occupied."""
@@ -171,7 +179,8 @@ def run_grasp_stage(world, occupancy, detection, task, q_current: np.ndarray, mo
     stuck = np.zeros(occupancy.shape, bool)  # voxels a look aimed at and did not see: no longer assumed free
     for round_ in range(1 if verify is None else verify.max_rounds):
         target, own = model(), own_now()
-        extra = own | (assumed_unknown_free(occupancy, config, spheres, q_home, task, method_rules) & ~stuck)
+        assumed = assumed_unknown_free(occupancy, config, spheres, q_home, task, method_rules) & ~stuck
+        extra = own | assumed
         fine, t_fine = None, 0.0
         if grasp_map is not None and config.fine_map and grasp_map.frames:
             t0 = time.perf_counter()
@@ -194,7 +203,7 @@ def run_grasp_stage(world, occupancy, detection, task, q_current: np.ndarray, mo
         if verify is None:
             break
         chosen = proposer.chosen(sel)
-        Q_grasp, blocked0, strict_path = manoeuvre(sel, verify.step, transfer=False), None, None
+        Q_grasp, blocked0, strict_path, t_ref = manoeuvre(sel, verify.step, transfer=False), None, None, None
         aimed, unseen = None, False
         while True:  # the grasp's own motions first, then a transfer through space seen free
             own = own_now() | base_volume_mask(spheres, occupancy)
@@ -203,23 +212,41 @@ def run_grasp_stage(world, occupancy, detection, task, q_current: np.ndarray, mo
                 rule = replace(method_rules, near_base_box=None)
                 own |= method_safe_voxels(occupancy, own, assumed_free_mask(occupancy, task, rule), rule.obstacle_halo)
             target = model()
-            unknown = swept_unknown(occupancy, spheres, Q_grasp, verify.inflate, own, target, config.select.clearance)
+            unknown = needs_look(swept_unknown(occupancy, spheres, Q_grasp, verify.inflate, own, target,
+                                               config.select.clearance), assumed, verify)
             blocked = swept_occupied(occupancy, spheres, Q_grasp, target, config.select.clearance)
             blocked0 = blocked if blocked0 is None else blocked0  # what the selection accepted (hand on the fine map)
             blocked = max(0, blocked - blocked0)
+            t_occ = swept_occupied(occupancy, spheres, transfer_path(sel, verify.step), target, config.select.clearance)
+            t_ref = (sel.path, t_occ) if t_ref is None or t_ref[0] is not sel.path else t_ref  # as planned
+            blocked += max(0, t_occ - t_ref[1])  # a look showed the transfer blocked too
             log.append({"round": round_, "unknown_grasp": int(len(unknown)), "occupied": int(blocked)})
             if blocked:
                 break
             if aimed is not None and np.all(occupancy.state[tuple(aimed.T)] == VoxelState.UNKNOWN):
-                stuck[tuple(aimed.T)] = unseen = True  # the last look saw none of them: choose again without them
                 log[-1]["unseen"] = int(len(aimed))
-                break
-            if len(unknown) == 0:
+                if verify.refuse:  # the last look saw none of them: choose again without them
+                    stuck[tuple(aimed.T)] = unseen = True
+                break  # (best effort: executed as chosen)
+            if verify.assumed_only:  # best effort: the transfer's assumed voxels are looked at with the grasp's
+                t_unknown = needs_look(swept_unknown(occupancy, spheres, transfer_path(sel, verify.step),
+                                                     verify.inflate, own), assumed, verify)
+                if len(t_unknown):  # through the space seen free and the robot's own, if one plans
+                    strict_path = strict_transfer(occupancy, target, spheres, q, sel.q_pregrasp, own, config, fine, rng)
+                    log[-1]["strict_path"] = strict_path is not None
+                    if strict_path is not None:
+                        sel, t_unknown = replace(sel, path=strict_path), t_unknown[:0]
+                unknown = np.unique(np.vstack([unknown, t_unknown]), axis=0)
+                log[-1]["unknown_all"] = int(len(unknown))
+                if len(unknown) == 0:
+                    break
+            elif len(unknown) == 0:
                 strict_path = strict_transfer(occupancy, target, spheres, q, sel.q_pregrasp, own, config, fine, rng)
                 log[-1]["strict_path"] = strict_path is not None
                 if strict_path is not None:
                     sel = replace(sel, path=strict_path)
-                unknown = swept_unknown(occupancy, spheres, transfer_path(sel, verify.step), verify.inflate, own)
+                unknown = needs_look(swept_unknown(occupancy, spheres, transfer_path(sel, verify.step), verify.inflate,
+                                                   own), assumed, verify)
                 log[-1]["unknown_all"] = int(len(unknown))
                 if len(unknown) == 0:
                     break
@@ -236,8 +263,10 @@ def run_grasp_stage(world, occupancy, detection, task, q_current: np.ndarray, mo
             if done is LookOutcome.COLLISION:
                 return GraspStageResult(TrialFailure.COLLISION, charge, sel, None, q, 0, n_views, tuple(log))
             if done is not LookOutcome.MOVED:  # no view sees them: refuse rather than move through the unknown
+                if not verify.refuse:
+                    break  # best effort: executed as chosen
                 return GraspStageResult(TrialFailure.GRASP_UNVERIFIED, charge, sel, None, q, 0, n_views, tuple(log))
-        if not blocked and len(unknown) == 0:
+        if not blocked and (len(unknown) == 0 or not verify.refuse):
             break
         if not (blocked or unseen) or round_ == verify.max_rounds - 1:  # the look budget is spent
             return GraspStageResult(TrialFailure.GRASP_UNVERIFIED, charge, sel, None, q, 0, n_views, tuple(log))

@@ -67,10 +67,26 @@ class VerifyConfig:
     and the method's space_margin, down to the floor) and beyond the method's obstacle halo from
     anything seen needs no look either: the rule the exploration baselines move on
     (`exploration.world_model.assumed_free_mask` without `near_base_box`; COMPASS itself keeps
-    Omega_safe around the base unsafe until seen). Weaker than "seen free"; off by default."""
+    Omega_safe around the base unsafe until seen). Weaker than "seen free"; off by default.
+    assumed_only: only the swept voxels the grasp stage took as free by an assumption (the
+    near-body / outside rules, `grasp_stage.assumed_unknown_free`) are looked at; the target's
+    carve and the checker's margin around its bound are not (a look at the arm's own way:
+    the space beside and in front of the base that the chosen manoeuvre crosses).
+    refuse: when voxels stay unknown (no view plans, a look sees none of them, the budget is
+    spent) the grasp is refused (`GRASP_UNVERIFIED`); False: it is executed as chosen, as
+    without looking - the look is best effort, it only adds the blockers it shows (a
+    manoeuvre whose swept voxels a look saw occupied is never executed: it is chosen again).
+    With assumed_only the transfer's voxels are looked at together with the approach's and
+    lift's (without it only once those are all seen), after trying a transfer through the
+    space seen free and the robot's own (`grasp_stage.strict_transfer`). outward: a third of
+    the look directions point away from the base (the camera between the base and the voxels,
+    looking out at the space beside the body, e.g. a lateral wall the elbow would meet)."""
 
     strict_first: bool = True
     trust_outside_space: bool = False
+    assumed_only: bool = False
+    refuse: bool = True
+    outward: bool = False
     max_views: int = 6
     max_rounds: int = 4
     inflate: float = 0.009
@@ -167,6 +183,13 @@ def look_points(centres: np.ndarray, n_groups: int, rng: np.random.Generator) ->
     return np.array(out)
 
 
+def look_axis(k: int, toward_base: np.ndarray, outward: bool) -> np.ndarray:
+    """(3,) the k-th look direction's cone axis: down (k even without outward), toward the base
+    (`toward_base`, from the look point), and with outward every third one away from it."""
+    m = k % (3 if outward else 2)
+    return np.array([0.0, 0.0, -1.0]) if m == 0 else np.asarray(toward_base, float) * (1.0 if m == 1 else -1.0)
+
+
 class RecordingProposer:
     """A proposer that keeps its last candidates, so the selected grasp's row can be pinned
     for the next selection (`chosen`)."""
@@ -216,8 +239,8 @@ class LookPlanner:
         poses = []
         for p in look_points(centres, cfg.n_groups, rng):
             toward_base = self.base + np.array([0.0, 0.0, 0.3]) - p  # the camera out in front, looking back
-            for k in range(cfg.n_dirs):  # view directions: down onto the voxels, or toward the base
-                axis = np.array([0.0, 0.0, -1.0]) if k % 2 == 0 else toward_base
+            for k in range(cfg.n_dirs):  # view directions: down onto the voxels, toward the base (or away)
+                axis = look_axis(k, toward_base, cfg.outward)
                 d = sample_direction_in_cone(axis, 0.7, rng)
                 poses.append(view_pose(p, d, rng.uniform(lo, hi), rng.uniform(-np.pi, np.pi)))
         Q = [s for T in poses for s in self.ik.solve(T, "cam", q, cfg.n_q7, retry=False).solutions[:2]]
