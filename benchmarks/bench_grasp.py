@@ -20,6 +20,7 @@ import json
 import os
 import sys
 import time
+from dataclasses import replace
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
@@ -99,6 +100,9 @@ def main() -> int:
                     help="take the unknown space links 0-4 sweep near home as free (the old assumption)")
     ap.add_argument("--min-visibility", type=float, default=None,
                     help="the oracle start's minimum target visibility (default GraspOnlyConfig's, 0.15)")
+    ap.add_argument("--plan-budget", type=float, default=None,
+                    help="the selection planner's time_budget per call [s] (default GraspSelectConfig's); "
+                         "a generous one keeps NO_PATH independent of the machine's load")
     args = ap.parse_args()
     inspect = InspectConfig() if args.inspect_views is None else InspectConfig(n_views=args.inspect_views)
     variants = [v == "on" for v in args.variants.split(",")]
@@ -107,7 +111,10 @@ def main() -> int:
         for index in range(args.start, args.start + args.count):
             scene = certified_scene(level, index, args.seed).scene
             for constrained in variants:
-                config = GraspOnlyConfig(select=GraspSelectConfig(constrained=constrained), fine_map=not args.no_fine_map,
+                select = GraspSelectConfig(constrained=constrained)
+                if args.plan_budget is not None:
+                    select = replace(select, planner=replace(select.planner, time_budget=args.plan_budget))
+                config = GraspOnlyConfig(select=select, fine_map=not args.no_fine_map,
                                          inspect=inspect, near_body_free=args.near_body_free,
                                          **({} if args.min_visibility is None
                                             else {"min_visibility": args.min_visibility}),
