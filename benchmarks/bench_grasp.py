@@ -20,6 +20,10 @@ import json
 import os
 import sys
 import time
+import contextlib
+import copy
+import pickle
+from dataclasses import replace
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
@@ -30,6 +34,7 @@ from compass_manip.grasp.candidates import AntipodalProposer, propose_in_cone
 from compass_manip.grasp.select import GraspSelectConfig, desired_approach
 from compass_manip.sim.certify import certified_scene
 from compass_manip.mapping.occupancy import MapConfig
+from compass_manip.sim import grasp_only
 from compass_manip.sim.grasp_only import GraspOnlyConfig, run_grasp_only
 from compass_manip.sim.near_field import WIDE_SCAN
 from compass_manip.sim.oracle import NECK_MIN_HEIGHT
@@ -78,6 +83,28 @@ def trial_record(level: int, index: int, constrained: bool, r, wall: float, neck
             "neck": neck}
 
 
+@contextlib.contextmanager
+def capturing(directory: str | None, level: int, index: int):
+    """With a directory: the harness's `select_grasp` inputs are pickled there (then the
+    selection runs as usual)."""
+    if directory is None:
+        yield
+        return
+    orig = grasp_only.select_grasp
+
+    def sel(target, occ, task, q, sph, config, rng, **kw):
+        os.makedirs(directory, exist_ok=True)
+        with open(os.path.join(directory, f"L{level}_{index}.pkl"), "wb") as f:
+            pickle.dump(dict(target=target, occ=occ, task=task, q=q, config=config, rng=copy.deepcopy(rng), **kw), f)
+        return orig(target, occ, task, q, sph, config, rng, **kw)
+
+    grasp_only.select_grasp = sel
+    try:
+        yield
+    finally:
+        grasp_only.select_grasp = orig
+
+
 def main() -> int:
     ap = argparse.ArgumentParser()
     ap.add_argument("--count", type=int, default=2, help="scenes per level (default 2)")
@@ -99,15 +126,26 @@ def main() -> int:
                     help="take the unknown space links 0-4 sweep near home as free (the old assumption)")
     ap.add_argument("--min-visibility", type=float, default=None,
                     help="the oracle start's minimum target visibility (default GraspOnlyConfig's, 0.15)")
+    ap.add_argument("--plan-budget", type=float, default=None,
+                    help="the selection's and INSPECT's planner time_budget per call [s] (default their configs'); "
+                         "a generous one keeps NO_PATH independent of the machine's load")
+    ap.add_argument("--capture", default=None,
+                    help="also pickle each constrained selection's inputs to DIR/L{level}_{index}.pkl "
+                         "(the format of capture_select_inputs.py, for replay_select.py)")
     args = ap.parse_args()
     inspect = InspectConfig() if args.inspect_views is None else InspectConfig(n_views=args.inspect_views)
+    if args.plan_budget is not None:
+        inspect = replace(inspect, planner=replace(inspect.planner, time_budget=args.plan_budget))
     variants = [v == "on" for v in args.variants.split(",")]
     recs = []
     for level in args.levels:
         for index in range(args.start, args.start + args.count):
             scene = certified_scene(level, index, args.seed).scene
             for constrained in variants:
-                config = GraspOnlyConfig(select=GraspSelectConfig(constrained=constrained), fine_map=not args.no_fine_map,
+                select = GraspSelectConfig(constrained=constrained)
+                if args.plan_budget is not None:
+                    select = replace(select, planner=replace(select.planner, time_budget=args.plan_budget))
+                config = GraspOnlyConfig(select=select, fine_map=not args.no_fine_map,
                                          inspect=inspect, near_body_free=args.near_body_free,
                                          **({} if args.min_visibility is None
                                             else {"min_visibility": args.min_visibility}),
@@ -116,7 +154,8 @@ def main() -> int:
                                          **({"near_field_scan": None} if args.no_near_scan
                                             else {"near_field_scan": WIDE_SCAN} if args.wide_scan else {}))
                 t0 = time.perf_counter()
-                r = run_grasp_only(scene, config, seed=args.seed)
+                with capturing(args.capture if constrained else None, level, index):
+                    r = run_grasp_only(scene, config, seed=args.seed)
                 wall = time.perf_counter() - t0
                 rec = trial_record(level, index, constrained, r, wall, neck_stats(scene, r, args.seed))
                 recs.append(rec)

@@ -31,6 +31,7 @@ import copy
 import json
 import math
 import os
+import pickle
 import sys
 from collections import Counter
 
@@ -46,6 +47,7 @@ from compass_manip.grasp.select import (GraspSelectConfig, approach_angles, base
 from compass_manip.mapping.occupancy import VoxelState
 from compass_manip.robot.ik import PandaIK
 from compass_manip.sim import oracle
+from compass_manip.sim.scenes import BOARD_THICKNESS
 from diag_grasp_certified import _dists, blocking_cells, scene_spheres
 from diag_hand_rejections import capture, gt_free, label_of, scene_arguments
 
@@ -65,6 +67,10 @@ class Frame:
         lo, hi = occl[0].aabb() if occl else (np.full(3, np.nan), np.full(3, np.nan))
         self.box_lo, self.box_hi = np.asarray(lo), np.asarray(hi)
         self.neck_top = float(tgt.aabb()[1][2])
+        cab = scene.cabinet
+        self.x_open = float(cab.interior_min[0])
+        shelf = min((z for z in cab.shelves if z > self.neck_top), default=float(cab.interior_max[2]))
+        self.rail_bottom = shelf - BOARD_THICKNESS - float(cab.rail)
 
     def uvz(self, P: np.ndarray) -> np.ndarray:
         return np.column_stack([P[:, 0] - self.axis[0], P[:, 1] - self.axis[1], P[:, 2] - self.box_hi[2]])
@@ -78,6 +84,8 @@ class Frame:
         out[(u >= box_u0) & (u <= -self.r_neck) & lateral & (z > 0)] = "above_box"
         out[(u >= box_u0) & (u <= self.r_neck) & (z <= 0)] = "below_box_top"
         out[(u < box_u0)] = "in_front"
+        near_rail = (P[:, 0] >= self.x_open - 0.05) & (P[:, 0] <= self.x_open + 0.15) & (P[:, 2] >= self.rail_bottom - 0.05)
+        out[near_rail] = np.where(P[near_rail, 0] >= self.x_open, "behind_rail", "before_rail")
         return out
 
 
@@ -95,11 +103,70 @@ def robot_cells(field, spheres, q):
     return blocking_cells(field, spheres.sphere_centers(np.asarray(q)[None])[0], spheres.radii)
 
 
-def diagnose(level: int, index: int, seed: int, max_arm: int) -> dict:
+def visibility(scene, cells: np.ndarray, n: int, rng: np.random.Generator, frame: Frame) -> dict:
+    """GROUND TRUTH: of n camera poses looking at the cells (K,3) [m] from 0.15-0.6 m in any
+    direction, the ones whose configuration (camera IK, 4 q7 samples) is free of contacts:
+    the best fraction of the cells one of them sees (the depth ray reaches the cell), where
+    its camera stands (x against the opening plane [m], z against the rail's bottom [m]),
+    and the fraction seen by all of them together; split by inside / outside the opening."""
+    from compass_manip.geometry import look_at
+    from compass_manip.robot.ik import ik_camera
+    from compass_manip.robot.model import GRIPPER_MAX_WIDTH
+    from compass_manip.sim.world import World
+    world = World(scene)
+    q_home = np.asarray(world.robot.q_home)
+    seen_any = {"inside": np.zeros(len(cells), bool), "outside": np.zeros(len(cells), bool)}
+    best = {"inside": (0.0, None), "outside": (0.0, None)}
+    n_valid = Counter()
+    c0 = cells.mean(axis=0)
+    try:
+        for _ in range(n):
+            d = rng.normal(size=3)
+            d /= np.linalg.norm(d)
+            eye = c0 + rng.uniform(0.15, 0.6) * d
+            aim = cells[rng.integers(len(cells))]
+            T = look_at(eye, aim)
+            sols = ik_camera(T, q_home, n_q7=4).solutions
+            q = next((x for x in sols[:3] if not world.in_collision(x, GRIPPER_MAX_WIDTH)), None)
+            if q is None:
+                continue
+            f = world.render(q, rgb=False, seg=False)
+            Tc = np.linalg.inv(f.T_world_cam)
+            pc = cells @ Tc[:3, :3].T + Tc[:3, 3]
+            z = pc[:, 2]
+            h, w = f.depth.shape
+            ok = z > 0.05
+            uu = np.full(len(cells), -1)
+            vv = np.full(len(cells), -1)
+            uu[ok] = np.round(f.K[0, 0] * pc[ok, 0] / z[ok] + f.K[0, 2]).astype(int)
+            vv[ok] = np.round(f.K[1, 1] * pc[ok, 1] / z[ok] + f.K[1, 2]).astype(int)
+            ok &= (uu >= 0) & (uu < w) & (vv >= 0) & (vv < h)
+            seen = np.zeros(len(cells), bool)
+            dep = f.depth[vv[ok], uu[ok]]
+            seen[ok] = (dep >= z[ok] - 0.005) & (z[ok] <= 3.0)
+            where = "inside" if f.T_world_cam[0, 3] >= frame.x_open else "outside"
+            n_valid[where] += 1
+            seen_any[where] |= seen
+            frac = float(seen.mean())
+            if frac > best[where][0]:
+                pos = f.T_world_cam[:3, 3]
+                best[where] = (frac, [round(float(pos[0] - frame.x_open), 3), round(float(pos[2] - frame.rail_bottom), 3)])
+    finally:
+        world.close()
+    return {k: {"valid_poses": n_valid[k], "best_fraction": round(best[k][0], 3), "best_cam_x_z": best[k][1],
+                "union_fraction": round(float(seen_any[k].mean()), 3)} for k in ("inside", "outside")}
+
+
+def diagnose(level: int, index: int, seed: int, max_arm: int, from_dir: str | None = None, n_views: int = 0) -> dict:
     cs, spheres = scene_spheres(level, index, seed)
     scene, cert = cs.scene, cs.certificate
     rec: dict = {"level": level, "index": index}
-    box = capture(scene, seed)
+    path = None if from_dir is None else os.path.join(from_dir, f"L{level}_{index}.pkl")
+    if path is not None and os.path.exists(path):
+        with open(path, "rb") as f:
+            box = pickle.load(f)
+    else:
+        box = capture(scene, seed)
     if "target" not in box:
         rec["error"] = "no selection reached"
         return rec
@@ -160,6 +227,7 @@ def diagnose(level: int, index: int, seed: int, max_arm: int) -> dict:
     passed = np.nonzero(on_neck & (stage == "passed"))[0]
     passed = passed[np.argsort(-cands.score[within[passed]], kind="stable")][:max_arm]
     arm, arm_cells, arm_links = Counter(), Counter(), Counter()
+    arm_unknown: list = []  # the arm's blocking cells unknown on the map and free in truth
     for i in passed:
         qs, why, _, _ = ch.check_shorter(T[i], q, pre[i], lift[i], lift_clear)
         arm[why or "ok"] += 1
@@ -184,9 +252,18 @@ def diagnose(level: int, index: int, seed: int, max_arm: int) -> dict:
         cells, failing = robot_cells(ch.fine, spheres, bad_q)
         arm_links.update({spheres.link_names[spheres.body_index[k]] for k in failing})
         arm_cells.update(classify(cells, occ, fine, rest, frame))
+        if len(cells):
+            st, _ = label_of(cells, occ, fine)
+            free = _dists(cells, rest) > 0.5 * math.sqrt(3.0) * occ.resolution
+            arm_unknown.append(cells[(st == int(VoxelState.UNKNOWN)) & free])
     rec["arm_on_neck"] = dict(arm)
     rec["arm_links"] = dict(arm_links)
     rec["arm_cells"] = dict(arm_cells.most_common(12))
+    cells = np.unique(np.round(np.vstack(arm_unknown), 4), axis=0) if arm_unknown else np.zeros((0, 3))
+    rec["arm_unknown_free_cells"] = len(cells)
+    if n_views and len(cells):
+        rec["arm_unknown_visibility"] = visibility(scene, cells, n_views, np.random.default_rng([seed, level, index]),
+                                                   frame)
     # the certified grasp
     if cert.path is not None and len(cert.path_marks) >= 4:
         marks = dict(zip(("view", "pregrasp", "grasp", "lift"), cert.path_marks))
@@ -217,12 +294,17 @@ def main() -> int:
     ap = scene_arguments(argparse.ArgumentParser())
     ap.add_argument("--max-arm", type=int, default=60, help="on-neck hands passed to the arm stage per scene")
     ap.add_argument("--only", default=None, help="comma-separated L:I pairs (default all)")
+    ap.add_argument("--views", type=int, default=0,
+                    help="camera poses sampled to test whether the arm's unknown blocking cells can be seen (0: off)")
+    ap.add_argument("--from-dir", default=None,
+                    help="read the selection's inputs from DIR/L{level}_{index}.pkl (bench_grasp.py --capture) "
+                         "where present instead of running the harness")
     args = ap.parse_args()
     only = None if args.only is None else {tuple(int(x) for x in s.split(":")) for s in args.only.split(",")}
     for level in args.levels:
         for index in range(args.start, args.start + args.count):
             if only is None or (level, index) in only:
-                print(json.dumps(diagnose(level, index, args.seed, args.max_arm)), flush=True)
+                print(json.dumps(diagnose(level, index, args.seed, args.max_arm, args.from_dir, args.views)), flush=True)
     return 0
 
 

@@ -241,3 +241,40 @@ def test_a_search_stops_after_max_failed_plans_planner_failures(world, monkeypat
     assert sel.failure is GraspFailure.NO_PATH and calls["n"] > 2
     with pytest.raises(CompassInputError, match="max_failed_plans"):
         GraspSelectConfig(max_failed_plans=0)
+
+
+def test_the_pregrasp_configuration_is_a_valid_goal_for_the_planner(world):
+    """The pre-grasp the arm's checks return is valid for the planner's checker (its margin and
+    the target's box): a pre-grasp within the plan's margin of unsafe space made the planner
+    refuse its goal at once (GOAL_INVALID on levels 2 and 4 of seed 0: a NO_PATH that no
+    planning time could change)."""
+    import dataclasses
+    from compass_manip.grasp.checks import (GraspChecks, first_clear, lift_steps, offset_pose, pregrasp_steps,
+                                            rigid_hand_spheres)
+    from compass_manip.robot.ik import PandaIK
+    occ, task, target = world
+    spheres = panda_sphere_model()
+    cfg = dataclasses.replace(GraspSelectConfig(), plan_margin=0.04)
+    safe = (spheres.sphere_centers(Q_HOME[None])[0], spheres.radii + cfg.robot_clearance)
+    ch = GraspChecks(occ, target, spheres, PandaIK(spheres.kinematics), cfg, safe, None, Q_HOME)
+    assert ch.plan_margin > 0.02
+    clear = {h: ch.held_target_clear(h) for h in cfg.lift_heights}
+    c = antipodal_candidates(target, None, np.random.default_rng(0))
+    c = c.take(np.nonzero(approach_angles(c, desired_approach(target, task)) <= cfg.max_approach_angle)[0])
+    local = rigid_hand_spheres(spheres)
+    pre = first_clear(ch.fine, c.T_world_tcp, local, pregrasp_steps(cfg.pregrasp_distances))
+    lift = first_clear(ch.fine, c.T_world_tcp, local, lift_steps(cfg.lift_heights))
+    ok = np.nonzero(~np.isnan(pre) & ~np.isnan(lift))[0][:60]
+    near_unsafe = feasible = 0
+    for i in ok:
+        T = c.T_world_tcp[i]
+        qs, why, d, _ = ch.check_shorter(T, Q_HOME, pre[i], lift[i], clear)
+        # the pre-grasp the full checker alone would take next to the first free grasp configuration
+        sol = ch.ik_first(T, Q_HOME).solutions
+        free = sol[ch.valid(sol)]
+        q_any = None if not len(free) else ch.near(offset_pose(T, -pre[i]), free[0], ch)
+        near_unsafe += q_any is not None and not bool(ch.plan.are_valid(q_any[None])[0])
+        if why is None:
+            feasible += 1
+            assert bool(ch.plan.are_valid(qs[1][None])[0])
+    assert feasible >= 1 and near_unsafe >= 1

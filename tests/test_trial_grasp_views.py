@@ -50,6 +50,7 @@ def test_grasp_view_is_valid_all_the_way_and_sees_more_of_the_needed_space_than_
         insp = GraspInspector(wm, world.camera.K, task, gc.target, gc.select, gc.inspect, np.random.default_rng(1))
         hyps, needed = insp.needs(q_view, det)
         assert hyps and min(len(n) for n in needed) > 0  # the grasps still need unseen space
+        _own_space_decides(world, wm, task, q_view, det, gc, hyps, needed)
         for h in hyps:  # each keeps its candidate row, pinned for the next steps and the selection
             assert len(h.candidate) == 1 and np.allclose(h.candidate.T_world_tcp[0], h.T_world_tcp)
             assert h.candidate.score[0] == pytest.approx(h.score)
@@ -77,6 +78,26 @@ def test_grasp_view_is_valid_all_the_way_and_sees_more_of_the_needed_space_than_
         assert chosen < before and chosen < np.median(random_views)
     finally:
         world.close()
+
+
+def _own_space_decides(world, wm, task, q_view, det, gc, hyps, base):
+    """strict_safe (the space the GRASP stage's selection takes as the robot's own) decides which
+    unknown voxels a hypothesis still needs: a smaller own space than the model's swept space
+    needs more, and voxels the selection takes as its own are not needed (the grasp-only
+    harness's selection keeps only the way grown by 2 cm, its INSPECT model 5 cm: INSPECT
+    stopped on hypotheses needing nothing that the selection then refused)."""
+    def needs(strict_safe):
+        insp = GraspInspector(wm, world.camera.K, task, gc.target, gc.select, gc.inspect, np.random.default_rng(1),
+                              strict_safe=strict_safe)
+        return insp.needs(q_view, det, hyps=hyps)[1]
+
+    assert all(np.array_equal(a, b) for a, b in zip(base, needs(lambda o: wm.swept)))
+    none = needs(lambda o: np.zeros(o.shape, bool))
+    key = lambda n: {tuple(v) for v in n}  # noqa: E731
+    assert all(key(a) <= key(b) for a, b in zip(base, none)) and sum(map(len, none)) > sum(map(len, base))
+    own = wm.swept.copy()
+    own[tuple(base[0].T)] = True  # and the first hypothesis's needed voxels taken as the robot's own
+    assert len(needs(lambda o: own)[0]) == 0
 
 
 def test_grasp_map_integrates_frames_at_1cm_and_marks_the_way_but_not_seen_obstacles():

@@ -277,7 +277,9 @@ class GraspChecks:
         shorter ones of `config.pregrasp_distances`, and after the lift height `lift` [m] the
         lower ones of `config.lift_heights`, per grasp configuration: where the arm cannot stand
         at the hand's longest free pre-grasp, it may at a shorter one (the straight approach
-        from it is checked with the whole robot, `edge_valid`). lift_clear: whether the held
+        from it is checked with the whole robot, `edge_valid`). The pre-grasp configuration
+        must be valid for the planner's checker (`plan`: its margin, the target's box), whose
+        goal it is. lift_clear: whether the held
         target stays free along a lift, a bool for `lift` or a dict height -> bool.
         solved: the IK result of T from q_current (`ik_first`), when the caller has it (it
         does not depend on the map). Returns the distances used (nan on failure)."""
@@ -296,7 +298,9 @@ class GraspChecks:
         for q_g in r.solutions[free][: config.max_ik_solutions]:
             found = None
             for d in pres:
-                q_pre = self.near(offset_pose(T, -d), q_g, self)
+                # the pre-grasp is the planner's goal: free with the plan's margin (and clear of the
+                # target's box), else the planner refuses it at once (GOAL_INVALID)
+                q_pre = self.near(offset_pose(T, -d), q_g, self.plan)
                 if q_pre is None:
                     continue
                 if not self.edge_valid(q_pre, q_g):

@@ -103,8 +103,10 @@ class HarnessInspection:
 
 
 def inspect_views(world, model: HarnessModel, inspector, q_start: np.ndarray, detection, n_views: int,
-                  frame_step: float = 0.1, check_step: float = 0.01) -> HarnessInspection:
-    """Up to n_views grasp-aware INSPECT views from q_start (module doc)."""
+                  frame_step: float = 0.1, check_step: float = 0.01, on_move=None) -> HarnessInspection:
+    """Up to n_views grasp-aware INSPECT views from q_start (module doc). on_move: called with
+    each reached path densified at 0.05 rad ((m,7) [rad]) as soon as the robot has moved
+    along it (e.g. the harness's own-space mask, which the next step's needed voxels read)."""
     q = np.asarray(q_start, dtype=np.float64)
     n_plans = n_planned = reached = 0
     paths: list[np.ndarray] = []
@@ -127,6 +129,8 @@ def inspect_views(world, model: HarnessModel, inspector, q_start: np.ndarray, de
             frames.append(world.render(qf, rgb=False, seg=False))
             model.observe(frames[-1], world.camera.depth_max)
         model.add_swept(dense[:: max(1, int(0.05 / check_step))])
+        if on_move is not None:
+            on_move(densify(np.asarray(p.path), 0.05))
         paths.append(np.asarray(p.path))
         q = np.asarray(p.path)[-1]
         reached += 1

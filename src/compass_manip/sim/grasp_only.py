@@ -29,7 +29,6 @@ from ..grasp.target import TargetModel, backproject, build_target_model, TargetC
 from ..mapping.observe import integrate_observation
 from ..mapping.distance import unsafe_mask
 from ..mapping.occupancy import MapConfig, OccupancyMap, VoxelState
-from ..motion.timing import densify
 from ..robot.ik import ik_camera
 from ..robot.model import GRIPPER_MAX_WIDTH, Q_MAX, Q_MIN
 from ..robot.spheres import panda_sphere_model
@@ -313,18 +312,18 @@ def run_grasp_only(scene: SceneSpec, config: GraspOnlyConfig | None = None, seed
                                  upsample=config.select.field_upsample)
             model.add_swept(np.asarray(moved))
             near = (lambda o: near_body_unknown(o, spheres, q_home)) if config.near_body_free else None
+            # the needed voxels are those the selection below counts as unsafe: its own space is
+            # the way grown by carve_margin, not the model's swept space (the world model's margin)
             inspector = GraspInspector(model, world.camera.K, task, config.target, config.select, config.inspect,
-                                       rng, near)
+                                       rng, near, strict_safe=lambda o: way.mask & (o.state != VoxelState.OCCUPIED))
             det = SimpleNamespace(points_world=points, T_world_cam=view.T_world_cam)
-            insp = inspect_views(world, model, inspector, q_view, det, config.inspect.n_views)
+            insp = inspect_views(world, model, inspector, q_view, det, config.inspect.n_views, on_move=went)
             if insp.contacts:
                 return GraspOnlyResult(q_view, vis, len(points), None, None, None, map_time, way.time_s, 0.0,
                                        insp.n_views, tuple(f"{c.robot_geom}->{c.other_geom}" for c in insp.contacts))
             q_sel, n_insp = insp.q_end, insp.n_views
             if len(inspector.pinned):  # the hypotheses INSPECT looked for are checked first
                 proposer = PinnedProposer(AntipodalProposer(config.select.candidates), inspector.pinned)
-            for p in insp.paths:
-                went(densify(np.asarray(p), 0.05))
             frames += list(insp.frames)
         target = build_target_model(points, view.T_world_cam[:3, 3], task.target, occ, config.target)
         extra = way.mask & (occ.state != VoxelState.OCCUPIED)  # seen occupied stays unsafe (as in the trial)

@@ -88,10 +88,15 @@ class GraspInspector:
     grasp stage takes as free (or None). Call with (q_current (7,) [rad], detection) ->
     InspectPlan. more_candidates: `more_candidates(q_current)` -> (m, 7) [rad] further
     configurations to score (e.g. `trial.grasp_scan.NearFieldScanner.near_way`: next to the
-    way the arm moved, where the method's checker accepts about half of them), or None."""
+    way the arm moved, where the method's checker accepts about half of them), or None.
+    strict_safe: `strict_safe(occ)` -> the voxels (occ's shape) the GRASP stage's selection
+    will take as the robot's own space (its `extra_safe` less the near-body voxels), when that
+    is not `wm.swept`: a hypothesis's needed voxels are the unknown ones that selection
+    counts as unsafe, so INSPECT does not stop on a grasp the selection then refuses (None:
+    `wm.swept`, the trial's GRASP with `method_swept`)."""
 
     def __init__(self, wm, K: np.ndarray, task, target_config, select_config, config: InspectConfig,
-                 rng: np.random.Generator, near_body=None, more_candidates=None) -> None:
+                 rng: np.random.Generator, near_body=None, more_candidates=None, strict_safe=None) -> None:
         if not isinstance(rng, np.random.Generator):
             raise CompassInputError(f"rng {rng!r:.40} is not allowed; give an explicit np.random.Generator")
         self.wm, self.K, self.task, self.rng = wm, np.asarray(K, dtype=np.float64), task, rng
@@ -99,6 +104,7 @@ class GraspInspector:
         self.ik = PandaIK(wm.kin)
         self.near_body = near_body
         self.more_candidates = more_candidates
+        self.strict_safe = strict_safe
         self.last: dict = {}  # what the last step saw (hypotheses, needed voxels, views), for diagnosis
         self.stats: dict = {}
         self.pinned = GraspCandidates.empty()  # every hypothesis found so far (`pin`), newest first
@@ -129,8 +135,12 @@ class GraspInspector:
         cur = wm.spheres.sphere_centers(q[None])[0]
         bc, br = base_volume(wm.spheres, q)
         safe = (np.vstack([cur, bc]), np.r_[wm.spheres.radii + self.select_config.robot_clearance, br])
-        extra = wm.swept if self.near_body is None else (wm.swept | self.near_body(occ))
-        strict = strict_unsafe_mask(occ, target, self.select_config.clearance, safe, extra)
+        near = None if self.near_body is None else self.near_body(occ)
+        extra = wm.swept if near is None else (wm.swept | near)
+        own = extra if self.strict_safe is None else np.asarray(self.strict_safe(occ), dtype=bool)
+        if self.strict_safe is not None and near is not None:
+            own = own | near
+        strict = strict_unsafe_mask(occ, target, self.select_config.clearance, safe, own)
         if hyps is None:
             self.stats = {}
             proposer = PinnedProposer(AntipodalProposer(self.select_config.candidates), self.pinned)
