@@ -105,3 +105,17 @@ def test_ompl_stops_on_the_check_budget(wall):
     assert r.failure is PlanFailure.CHECK_BUDGET
     ok = plan(Q_LEFT, Q_RIGHT, wall, PlannerConfig(backend="ompl"))
     assert ok.success
+
+
+def test_method_and_grasp_sides_use_the_deterministic_budget():
+    """No wall clock in any method-side or grasp-side planner default (issue 9: same seed, same trial)."""
+    from compass_manip.exploration.baseline_common import ViewPlanningConfig
+    from compass_manip.grasp.select import GraspSelectConfig
+    from compass_manip.trial.grasp_scan import TrialScanConfig
+    from compass_manip.trial.inspect import InspectConfig
+    from compass_manip.trial.verify import VerifyConfig
+
+    for cfg, checks in ((GraspSelectConfig().planner, DEFAULT_MAX_CHECKS), (InspectConfig().planner, DEFAULT_MAX_CHECKS),
+                        (VerifyConfig().planner, DEFAULT_MAX_CHECKS), (ViewPlanningConfig().planner, 2 * DEFAULT_MAX_CHECKS),
+                        (TrialScanConfig().planner, 2 * DEFAULT_MAX_CHECKS)):
+        assert cfg.time_budget is None and cfg.max_checks == checks
