@@ -32,7 +32,7 @@ def _accepts(call):
         return False, None
 
 
-@given(field=st.sampled_from(["time_budget", "range", "edge_resolution", "verify_resolution", "simplify_rounds",
+@given(field=st.sampled_from(["max_checks", "time_budget", "range", "edge_resolution", "verify_resolution", "simplify_rounds",
                               "seed", "backend", "simplify"]), value=SCALARS | st.text(max_size=5))
 def test_planner_config_fields(field, value):
     ok, config = _accepts(lambda: PlannerConfig(**{field: value}))
@@ -44,6 +44,10 @@ def test_planner_config_fields(field, value):
             assert v in ("numba", "ompl")
         elif field == "simplify":
             assert isinstance(v, (bool, np.bool_))
+        elif field == "max_checks":  # None: the default check budget
+            assert isinstance(v, (int, np.integer)) and not isinstance(v, bool) and v >= 1
+        elif field == "time_budget" and v is None:  # no clock: the default check budget
+            assert config.max_checks >= 1
         else:
             assert math.isfinite(float(v)) and float(v) >= 0
 

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..mapping.occupancy import OccupancyMap
-from ..motion.planner import PlannerConfig, plan
+from ..motion.planner import DEFAULT_MAX_CHECKS, PlannerConfig, plan
 from ..robot.ik import PandaIK
 from ..robot.model import RobotConfig
 from ..task import Task
@@ -31,10 +31,11 @@ from .world_model import WorldModel, WorldModelConfig
 
 @dataclass(frozen=True)
 class ViewPlanningConfig:
-    """planner: the shared motion planner's settings (time budget [s] per query, edge
+    """planner: the shared motion planner's settings (edge-check budget per query: twice
+    the default, the old 1 s where 0.5 s was the rule elsewhere; edge
     steps [rad]); max_goals: IK solutions of one view handed to the planner as goals."""
 
-    planner: PlannerConfig = field(default_factory=lambda: PlannerConfig(time_budget=1.0))
+    planner: PlannerConfig = field(default_factory=lambda: PlannerConfig(max_checks=2 * DEFAULT_MAX_CHECKS))
     max_goals: int = 4
 
 

@@ -109,7 +109,7 @@ class GraspSelectConfig:
     exact_fallback: bool = True
     max_failed_plans: int | None = 6
     candidates: CandidateConfig = field(default_factory=CandidateConfig)
-    planner: PlannerConfig = field(default_factory=lambda: PlannerConfig(time_budget=0.5))
+    planner: PlannerConfig = field(default_factory=PlannerConfig)
 
     def __post_init__(self) -> None:
         if not 0.0 < self.max_approach_angle <= math.pi:

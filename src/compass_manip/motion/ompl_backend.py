@@ -1,8 +1,10 @@
 """OMPL backend of the planner: OMPL 2.0.1's RRTConnect + PathSimplifier via its Python wheel.
 
 State validity and motion validation call the same numba checks as the numba backend (one
-Python callback per query). OMPL seeds one process-wide RNG on first use, so results are not
-reproducible per call.
+Python callback per query). The search stops on the planner's `Budget`: its edge-check cap
+counted on OMPL's validity queries (a termination condition polled by OMPL) and its
+deadline if any. OMPL seeds one process-wide RNG on first use, so results are not
+reproducible per call even with the check cap alone.
 """
 from __future__ import annotations
 
@@ -16,10 +18,10 @@ from .rrt_kernels import edge_ok, states_valid
 __all__ = ["plan_ompl"]
 
 
-def plan_ompl(q_start, goals, validity, args, config, res, deadline):
+def plan_ompl(q_start, goals, validity, args, config, res, budget):
     """OMPL RRTConnect + PathSimplifier with Python callbacks; returns (path, fine_ok
     (all False: OMPL's simplifier is re-checked by the caller), goal index, n validity queries). args: `validity.kernel_args()` or None (use the Python API);
-    res [rad] edge resolution; deadline: `time.perf_counter()` value."""
+    res [rad] edge resolution; budget: the planner's `Budget` (charged with the queries)."""
     from ompl import base as ob
     from ompl import geometric as og
     from ompl import util as ou
@@ -67,11 +69,24 @@ def plan_ompl(q_start, goals, validity, args, config, res, deadline):
     planner.setRange(config.range)
     ss.setPlanner(planner)
     ss.setup()
-    ss.solve(max(deadline - time.perf_counter(), 1e-4))
+    limit = budget.checks_left
+
+    def stop() -> bool:
+        return (limit is not None and counter[0] >= limit) or (
+            budget.deadline is not None and time.perf_counter() >= budget.deadline)
+
+    if budget.spent():
+        return None, -1, 0
+    ss.solve(ob.PlannerTerminationCondition(stop))
+    budget.charge(counter[0])
     if not ss.haveExactSolutionPath():
+        budget.spent()  # records a passed deadline
         return None, -1, counter[0]
-    if config.simplify:
-        ss.simplifySolution(max(deadline - time.perf_counter(), 1e-3))
+    if config.simplify:  # not charged to the check cap (as the numba backend's shortcutting)
+        if budget.deadline is None:
+            ss.simplifySolution()
+        else:
+            ss.simplifySolution(max(budget.deadline - time.perf_counter(), 1e-3))
     p = ss.getSolutionPath()
     path = np.array([as_q(p.getState(k)) for k in range(p.getStateCount())])
     gi = int(np.argmin(np.linalg.norm(goals - path[-1], axis=1)))

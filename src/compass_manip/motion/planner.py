@@ -13,6 +13,17 @@ tried before any tree is grown. Two backends:
   Python state validity callback and a motion validator calling the same edge check. OMPL
   seeds one process-wide RNG on first use, so it is not reproducible per call.
 
+Budget: by default a deterministic one, `max_checks` edge checks of tree growth (each
+extension step of RRT-Connect is one check of an edge of at most `range` [rad]) summed over
+everything one `plan` call searches (the search, the fine-step repairs, the fine-step
+re-search), so the same call with the same rng gives the same result on an idle or a busy
+machine. A wall-clock cap (`time_budget` [s]) is an explicit option (the MBM benchmark, the
+motion benchmark and scene certification use it); given alone it is the only cap, as before.
+The start/goal checks, the straight segments to the goals and the shortcutting (bounded
+by `simplify_rounds`) are not counted. OMPL stops on the same check count (a termination
+condition on its validity queries) and on the wall clock if given, but its RNG is
+process-wide, so its paths are not reproducible either way.
+
 Edges are straight lines in joint space checked at `edge_resolution` [rad] (largest
 joint step between checked states) during the search. The final path is re-checked at the
 finer `verify_resolution`; a segment that fails there is replanned between its ends at the
@@ -48,12 +59,24 @@ class PlanFailure(Enum):
 
     START_INVALID = "start configuration is in collision"
     GOAL_INVALID = "every goal configuration is in collision"
-    TIMEOUT = "no path found within the time budget"
+    TIMEOUT = "no path found within the wall-clock time budget"
+    CHECK_BUDGET = "no path found within the edge-check budget"
+
+
+#: Default `PlannerConfig.max_checks`: edge checks of tree growth per `plan` call. Sized
+#: from measurements (docs/grasping.md "Speed"): above the checks the numba planner made in
+#: 0.5 s of CPU on the grasp selections' failed calls (the old 0.5 s wall-clock budget on an
+#: idle machine) and above every successful call measured on grasp selections and exploration
+#: decisions.
+DEFAULT_MAX_CHECKS = 20000
 
 
 @dataclass(frozen=True)
 class PlannerConfig:
-    """time_budget [s] for the search; range [rad] longest tree extension; simplify: shortcut
+    """max_checks: edge checks of tree growth one `plan` call may make (deterministic; None
+    with time_budget given: no check cap); time_budget [s]: optional wall-clock cap (None: no
+    clock; given without max_checks it is the only cap); with neither given max_checks is
+    DEFAULT_MAX_CHECKS. range [rad] longest tree extension; simplify: shortcut
     the path; edge_resolution [rad] largest joint step between checked states on an edge
     during the search; verify_resolution [rad] finer step at which the final path is
     re-checked (failing segments are replanned at that step; 0 = no re-check);
@@ -61,7 +84,8 @@ class PlannerConfig:
     ~2x the planning time for < 1 % shorter joint paths); seed for `plan` when no rng is given;
     backend "numba" or "ompl"."""
 
-    time_budget: float = 1.0
+    max_checks: int | None = None
+    time_budget: float | None = None
     range: float = 0.5
     simplify: bool = True
     edge_resolution: float = 0.04
@@ -71,17 +95,22 @@ class PlannerConfig:
     backend: str = "numba"
 
     def __post_init__(self) -> None:
-        for name in ("time_budget", "range", "edge_resolution", "verify_resolution"):
+        if self.max_checks is None and self.time_budget is None:
+            object.__setattr__(self, "max_checks", DEFAULT_MAX_CHECKS)
+        for name in ("range", "edge_resolution", "verify_resolution") + (("time_budget",) * (self.time_budget is not None)):
             real_number(getattr(self, name), f"PlannerConfig.{name}")
-        for name in ("simplify_rounds", "seed"):
+        for name in ("simplify_rounds", "seed") + (("max_checks",) * (self.max_checks is not None)):
             v = getattr(self, name)
             if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer)):
                 raise CompassInputError(f"PlannerConfig.{name} = {v!r:.40} is not allowed; use a whole number >= 0")
+        if self.max_checks is not None and not 1 <= self.max_checks <= 10**9:
+            raise CompassInputError(f"max_checks = {self.max_checks} is not allowed; use 1..10**9 or None")
         if not 0 <= self.seed < 2**63:
             raise CompassInputError(f"seed = {self.seed} is not allowed; use a whole number 0..2**63 - 1")
         if not isinstance(self.simplify, (bool, np.bool_)):
             raise CompassInputError(f"PlannerConfig.simplify = {self.simplify!r:.40} is not allowed; use True or False")
-        if not (math.isfinite(float(self.time_budget)) and 0.0 < self.time_budget <= 3600.0):
+        if self.time_budget is not None and not (math.isfinite(float(self.time_budget))
+                                                 and 0.0 < self.time_budget <= 3600.0):
             raise CompassInputError(f"time_budget = {self.time_budget} s is not allowed; use 0 < t <= 3600 s")
         if not (math.isfinite(float(self.range)) and 0.0 < self.range <= 20.0):
             raise CompassInputError(f"range = {self.range} rad is not allowed; use 0 < range <= 20 rad")
@@ -163,25 +192,50 @@ def plan(q_start, q_goals, validity, config: PlannerConfig | None = None,
         return fail(PlanFailure.GOAL_INVALID, n_checks)
     idx = np.nonzero(ok)[0]
     idx = idx[np.argsort(np.linalg.norm(G[idx] - q_start, axis=1), kind="stable")]
-    deadline = t0 + config.time_budget
+    budget = Budget(config.max_checks, None if config.time_budget is None else t0 + config.time_budget)
     coarse, fine = config.edge_resolution, config.verify_resolution
-    path, gi, n = _search(q_start, G[idx], validity, args, config, coarse, rng, deadline)
+    path, gi, n = _search(q_start, G[idx], validity, args, config, coarse, rng, budget)
     n_checks += n
     if path is not None and 0.0 < fine < coarse:
         # re-check at the fine step; replan only the failing segments; last resort: all at the fine step
-        repaired, n = _repair(path, validity, args, config, fine, rng, deadline)
+        repaired, n = _repair(path, validity, args, config, fine, rng, budget)
         n_checks += n
         if repaired is None:
-            path, gi, n = _search(q_start, G[idx], validity, args, config, fine, rng, deadline)
+            path, gi, n = _search(q_start, G[idx], validity, args, config, fine, rng, budget)
             n_checks += n
         else:
             path = repaired
     if path is None:
-        return fail(PlanFailure.TIMEOUT, n_checks)
+        return fail(PlanFailure.TIMEOUT if budget.timed_out else PlanFailure.CHECK_BUDGET, n_checks)
     return PlanResult(path, None, int(idx[gi]), time.perf_counter() - t0, n_checks)
 
 
-def _repair(path, validity, args, config, fine, rng, deadline, depth: int = 0):
+class Budget:
+    """What one `plan` call may still spend: checks_left edge checks of tree growth (None:
+    no cap) and a `time.perf_counter()` deadline (None: no clock). The searches charge it."""
+
+    def __init__(self, max_checks: int | None, deadline: float | None):
+        self.checks_left = max_checks
+        self.deadline = deadline
+        self.timed_out = False
+
+    def spent(self) -> bool:
+        """True once the checks are used up or the deadline has passed (then timed_out)."""
+        if self.deadline is not None and time.perf_counter() >= self.deadline:
+            self.timed_out = True
+            return True
+        return self.checks_left is not None and self.checks_left <= 0
+
+    def charge(self, n: int) -> None:
+        if self.checks_left is not None:
+            self.checks_left -= int(n)
+
+    def kernel_limit(self) -> int:
+        """The check cap to hand one kernel call."""
+        return 2**62 if self.checks_left is None else max(int(self.checks_left), 0)
+
+
+def _repair(path, validity, args, config, fine, rng, budget, depth: int = 0):
     """The path with every segment that fails at the `fine` step replaced by a path planned
     between its ends at that step (the numba planner checks every returned segment at the
     step it plans with, so the replacement is not checked again; OMPL's is, at most 3
@@ -195,14 +249,14 @@ def _repair(path, validity, args, config, fine, rng, deadline, depth: int = 0):
         if depth >= 2:
             return None, n_checks
         if config.backend == "ompl":
-            sub, _, n = plan_ompl(a, b[None], validity, args, config, fine, deadline)
+            sub, _, n = plan_ompl(a, b[None], validity, args, config, fine, budget)
         else:
-            sub, _, n = _plan_numba(a, b[None], args, config, fine, rng, deadline)
+            sub, _, n = _plan_numba(a, b[None], args, config, fine, rng, budget)
         n_checks += n
         if sub is None:
             return None, n_checks
         if config.backend == "ompl":  # OMPL's simplifier is not ours: re-check what it returns
-            sub, n = _repair(sub, validity, args, config, fine, rng, deadline, depth + 1)
+            sub, n = _repair(sub, validity, args, config, fine, rng, budget, depth + 1)
             n_checks += n
             if sub is None:
                 return None, n_checks
@@ -225,7 +279,7 @@ def _compile_kernels(args) -> None:
     trees = _Trees(q, q[None], capacity=8)
     state = np.zeros(1, np.uint64)
     rrt_connect_kernel(args, Q_MIN, Q_MAX, 0.1, 1.0, trees.nodes_a, trees.parent_a, trees.nodes_b,
-                       trees.parent_b, trees.counts, trees.link, state, 0)
+                       trees.parent_b, trees.counts, trees.link, state, 0, 0)
     simplify_kernel(args, np.stack([q, q]), 0.1, 0, state)
     _COMPILED.append(nb.typeof(args))
 
@@ -234,7 +288,7 @@ def _edge_ok(q0, q1, res, validity, args) -> bool:
     return bool(edge_ok(q0, q1, res, args) if args is not None else validity.edge_valid(q0, q1, res))
 
 
-def _search(q_start, goals, validity, args, config, res, rng, deadline):
+def _search(q_start, goals, validity, args, config, res, rng, budget):
     """Straight line to each goal (nearest first), then RRT-Connect; (path, goal, checks)."""
     n_checks = 0
     for i in range(len(goals)):
@@ -243,34 +297,38 @@ def _search(q_start, goals, validity, args, config, res, rng, deadline):
             return np.stack([q_start, goals[i]]), i, n_checks
     goals = np.ascontiguousarray(goals)
     if config.backend == "ompl":
-        path, gi, n = plan_ompl(q_start, goals, validity, args, config, res, deadline)
+        path, gi, n = plan_ompl(q_start, goals, validity, args, config, res, budget)
     else:
-        path, gi, n = _plan_numba(q_start, goals, args, config, res, rng, deadline)
+        path, gi, n = _plan_numba(q_start, goals, args, config, res, rng, budget)
     return path, gi, n_checks + n
 
 
-def _plan_numba(q_start, goals, args, config, res, rng, deadline):
-    """RRT-Connect in chunks of iterations between clock checks; returns (path, goal, n)."""
+def _plan_numba(q_start, goals, args, config, res, rng, budget):
+    """RRT-Connect charged to `budget`; with a deadline in chunks of iterations between
+    clock checks (the chunking does not change the result); returns (path, goal, n)."""
     if args is None:
         raise CompassInputError("the numba planner needs a ValidityChecker (kernel_args); use backend='ompl'")
     state = np.array([rng.integers(0, 2**63 - 1, dtype=np.int64)], dtype=np.uint64)
     trees = _Trees(q_start, goals, capacity=4096)
     res, rng_range = float(res), float(config.range)
-    chunk = 8  # iterations between clock checks, adapted to ~2 ms of work
+    chunk = 8 if budget.deadline is not None else 2**62  # iterations between clock checks, ~2 ms of work
     n_checks = 0
     while True:
         tc = time.perf_counter()
-        if tc >= deadline:
+        if budget.spent():
             return None, -1, n_checks
         status, n = rrt_connect_kernel(
             args, Q_MIN, Q_MAX, res, rng_range, trees.nodes_a, trees.parent_a,
-            trees.nodes_b, trees.parent_b, trees.counts, trees.link, state, chunk,
+            trees.nodes_b, trees.parent_b, trees.counts, trees.link, state, chunk, budget.kernel_limit(),
         )
         n_checks += n
+        budget.charge(n)
         if status == STATUS_CONNECTED:
             break
         if status == STATUS_FULL:
             trees.grow()
+        if budget.deadline is None:
+            continue
         now = time.perf_counter()
         if now - tc < 1e-3:
             chunk = min(2 * chunk, 4096)

@@ -51,16 +51,21 @@ def _grow(args, nodes, parent, counts, t, q_target, step, res, connect):
 
 @nb.njit(cache=True)
 def rrt_connect_kernel(args, lo, hi, res, step, nodes0, parent0, nodes1, parent1,
-                       counts, link, state, iters):
-    """Run up to `iters` RRT-Connect iterations on the start tree (0) and goal tree (1).
+                       counts, link, state, iters, max_checks):
+    """Run up to `iters` RRT-Connect iterations on the start tree (0) and goal tree (1),
+    stopping before an iteration once `max_checks` edge checks have been made in this call
+    (an iteration makes at most 1 + MAX_NEW_PER_ITER, so the count may pass it by that much).
 
     counts (2,) node counts; link[0] the tree extended next, on connection link[1], link[2]
-    are the meeting nodes in trees 0 and 1. Returns (STATUS_*, edge checks).
+    are the meeting nodes in trees 0 and 1. Returns (STATUS_*, edge checks). The result of
+    a sequence of calls depends only on the iterations run, not on how they are split.
     """
     q_rand = np.empty(lo.shape[0])
     n_checks = 0
     cap = min(nodes0.shape[0], nodes1.shape[0])
     for _ in range(iters):
+        if n_checks >= max_checks:
+            return STATUS_RUNNING, n_checks
         if max(counts[0], counts[1]) + 2 * MAX_NEW_PER_ITER >= cap:
             return STATUS_FULL, n_checks
         for j in range(lo.shape[0]):

@@ -25,7 +25,7 @@ import numpy as np
 from ..errors import CompassInputError
 from ..exploration.nfa import safe_box_map
 from ..mapping.infogain import info_gain_batch
-from ..motion.planner import PlannerConfig, plan
+from ..motion.planner import DEFAULT_MAX_CHECKS, PlannerConfig, plan
 from ..robot.model import Q_MAX, Q_MIN
 from ..sim.near_field import NearFieldScanConfig, scan_candidates
 from .inspect import InspectPlan
@@ -49,7 +49,7 @@ class TrialScanConfig:
     wrist_sigma: float = 0.4
     target_margin: float = 0.2
     candidates: NearFieldScanConfig = field(default_factory=NearFieldScanConfig)
-    planner: PlannerConfig = field(default_factory=lambda: PlannerConfig(time_budget=1.0))
+    planner: PlannerConfig = field(default_factory=lambda: PlannerConfig(max_checks=2 * DEFAULT_MAX_CHECKS))
 
     def __post_init__(self) -> None:
         if isinstance(self.max_views, bool) or not isinstance(self.max_views, int) or not 0 <= self.max_views <= 20:

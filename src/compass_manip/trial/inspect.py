@@ -72,7 +72,7 @@ class InspectConfig:
     occlusion: bool = True
     n_occlusion: int = 30
     n_rays: int = 300
-    planner: PlannerConfig = field(default_factory=lambda: PlannerConfig(time_budget=0.5))
+    planner: PlannerConfig = field(default_factory=PlannerConfig)
 
     def __post_init__(self) -> None:
         if isinstance(self.n_views, bool) or not isinstance(self.n_views, int) or not 0 <= self.n_views <= 20:

@@ -105,7 +105,7 @@ class VerifyConfig:
     n_way: int = 300
     way_sigma: float = 1.0
     n_goals: int = 5
-    planner: PlannerConfig = PlannerConfig(time_budget=0.5)
+    planner: PlannerConfig = PlannerConfig()
 
     def __post_init__(self) -> None:
         for name in ("max_views", "max_rounds", "n_dirs", "n_groups", "n_q7", "n_samples", "n_rays",
