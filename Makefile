@@ -24,7 +24,7 @@ demo: venv
 	.venv/bin/compass demo --level 4 --out outputs/demo
 
 test: venv
-	$(PY) -m pytest -q -p no:cacheprovider --durations=15
+	$(PY) -m pytest -q -p no:cacheprovider -n 2 --durations=15
 
 bench: venv
 	$(PY) benchmarks/run_all.py

@@ -127,15 +127,15 @@ def main() -> int:
     ap.add_argument("--min-visibility", type=float, default=None,
                     help="the oracle start's minimum target visibility (default GraspOnlyConfig's, 0.15)")
     ap.add_argument("--plan-budget", type=float, default=None,
-                    help="the selection's and INSPECT's planner time_budget per call [s] (default their configs'); "
-                         "a generous one keeps NO_PATH independent of the machine's load")
+                    help="a wall-clock planner budget per call [s] for the selection and INSPECT instead of "
+                         "their configs' edge-check budget (max_checks); outcomes then depend on the load")
     ap.add_argument("--capture", default=None,
                     help="also pickle each constrained selection's inputs to DIR/L{level}_{index}.pkl "
                          "(the format of capture_select_inputs.py, for replay_select.py)")
     args = ap.parse_args()
     inspect = InspectConfig() if args.inspect_views is None else InspectConfig(n_views=args.inspect_views)
     if args.plan_budget is not None:
-        inspect = replace(inspect, planner=replace(inspect.planner, time_budget=args.plan_budget))
+        inspect = replace(inspect, planner=replace(inspect.planner, time_budget=args.plan_budget, max_checks=None))
     variants = [v == "on" for v in args.variants.split(",")]
     recs = []
     for level in args.levels:
@@ -144,7 +144,7 @@ def main() -> int:
             for constrained in variants:
                 select = GraspSelectConfig(constrained=constrained)
                 if args.plan_budget is not None:
-                    select = replace(select, planner=replace(select.planner, time_budget=args.plan_budget))
+                    select = replace(select, planner=replace(select.planner, time_budget=args.plan_budget, max_checks=None))
                 config = GraspOnlyConfig(select=select, fine_map=not args.no_fine_map,
                                          inspect=inspect, near_body_free=args.near_body_free,
                                          **({} if args.min_visibility is None
