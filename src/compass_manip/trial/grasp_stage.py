@@ -203,7 +203,17 @@ def run_grasp_stage(world, occupancy, detection, task, q_current: np.ndarray, mo
         if verify is None:
             break
         chosen = proposer.chosen(sel)
-        Q_grasp, blocked0, strict_path, t_ref = manoeuvre(sel, verify.step, transfer=False), None, None, None
+        Q_grasp, blocked0, t_ref = manoeuvre(sel, verify.step, transfer=False), None, None
+
+        def transfer_unknown(sel, own):  # the transfer's swept voxels a look must see
+            return needs_look(swept_unknown(occupancy, spheres, transfer_path(sel, verify.step), verify.inflate, own),
+                              assumed, verify)
+
+        def through_seen(sel, own, target):  # sel with a transfer through seen-free and own space, if one plans
+            path = strict_transfer(occupancy, target, spheres, q, sel.q_pregrasp, own, config, fine, rng)
+            log[-1]["strict_path"] = path is not None
+            return sel if path is None else replace(sel, path=path)
+
         aimed, unseen = None, False
         while True:  # the grasp's own motions first, then a transfer through space seen free
             own = own_now() | base_volume_mask(spheres, occupancy)
@@ -229,24 +239,18 @@ def run_grasp_stage(world, occupancy, detection, task, q_current: np.ndarray, mo
                     stuck[tuple(aimed.T)] = unseen = True
                 break  # (best effort: executed as chosen)
             if verify.assumed_only:  # best effort: the transfer's assumed voxels are looked at with the grasp's
-                t_unknown = needs_look(swept_unknown(occupancy, spheres, transfer_path(sel, verify.step),
-                                                     verify.inflate, own), assumed, verify)
-                if len(t_unknown):  # through the space seen free and the robot's own, if one plans
-                    strict_path = strict_transfer(occupancy, target, spheres, q, sel.q_pregrasp, own, config, fine, rng)
-                    log[-1]["strict_path"] = strict_path is not None
-                    if strict_path is not None:
-                        sel, t_unknown = replace(sel, path=strict_path), t_unknown[:0]
+                t_unknown = transfer_unknown(sel, own)
+                if len(t_unknown):
+                    strict = through_seen(sel, own, target)
+                    if strict is not sel:
+                        sel, t_unknown = strict, t_unknown[:0]
                 unknown = np.unique(np.vstack([unknown, t_unknown]), axis=0)
                 log[-1]["unknown_all"] = int(len(unknown))
                 if len(unknown) == 0:
                     break
             elif len(unknown) == 0:
-                strict_path = strict_transfer(occupancy, target, spheres, q, sel.q_pregrasp, own, config, fine, rng)
-                log[-1]["strict_path"] = strict_path is not None
-                if strict_path is not None:
-                    sel = replace(sel, path=strict_path)
-                unknown = needs_look(swept_unknown(occupancy, spheres, transfer_path(sel, verify.step), verify.inflate,
-                                                   own), assumed, verify)
+                sel = through_seen(sel, own, target)
+                unknown = transfer_unknown(sel, own)
                 log[-1]["unknown_all"] = int(len(unknown))
                 if len(unknown) == 0:
                     break
