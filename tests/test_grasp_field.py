@@ -38,6 +38,31 @@ def test_sphere_rasteriser_equals_brute_force():
         assert np.array_equal(m, want)
 
 
+def test_sphere_rasteriser_on_a_corner_of_a_large_grid_equals_brute_force():
+    """Only the blocks under the spheres' common box are counted: spheres in one corner, at
+    the grid's far faces (a shape that is no multiple of the 4-voxel block) and wholly
+    outside it clear exactly what the brute force clears, and nothing else."""
+    rng = np.random.default_rng(7)
+    shape = (41, 38, 35)
+    for trial in range(12):
+        n = int(rng.integers(1, 6))
+        corner = np.array([0.0, 0.0, 0.0]) if trial % 2 else np.array(shape) * 0.01
+        c = corner + rng.uniform(-0.06, 0.06, (n, 3))
+        r = rng.uniform(0.0, 0.05, n)
+        if trial % 3 == 0:
+            c = np.vstack([c, [[-0.5, 0.2, 0.2], [0.2, 0.2, 1.0]]])  # wholly outside the grid
+            r = np.r_[r, 0.1, 0.1]
+        m = np.ones(shape, bool)
+        m[rng.random(shape) < 0.2] = False
+        want = m & brute_force_clear(shape, np.zeros(3), 0.01, c, r)
+        _clear_spheres(m, np.zeros(3), 0.01, c, r)
+        assert np.array_equal(m, want)
+    m = np.ones(shape, bool)
+    _clear_spheres(m, np.zeros(3), 0.01, np.array([[-1.0, -1.0, -1.0]]), np.array([0.2]))
+    _clear_spheres(m, np.zeros(3), 0.01, np.zeros((0, 3)), np.zeros(0))
+    assert m.all()
+
+
 def test_robot_space_mask_incremental_equals_one_shot():
     from compass_manip.robot.model import Q_MAX, Q_MIN, RobotConfig
 
@@ -123,3 +148,48 @@ def test_fine_map_integration_hand_computed():
     assert fine.state[20, 20, 17] == VoxelState.UNKNOWN and fine.state[21, 20, 30] == VoxelState.UNKNOWN
     with pytest.raises(CompassInputError, match="upsample"):
         local_fine_map(occ, np.zeros(3), np.ones(3), 7)
+
+
+def test_near_body_unknown_is_the_swept_spheres_unknown_voxels_and_cached():
+    """`near_body_unknown` (cached swept mask) equals its definition: the unknown voxels
+    whose centres lie inside the links 0-4 spheres swept near home (brute force on a 4 cm
+    grid), for two maps of the same grid with different states."""
+    from compass_manip.robot.model import RobotConfig
+    from compass_manip.sim.grasp_only import near_body_swept, near_body_unknown
+
+    spheres = panda_sphere_model()
+    home = np.asarray(RobotConfig().q_home)
+    occ = OccupancyMap(MapConfig(box_min=(-0.6, -0.7, -0.1), box_max=(0.9, 0.7, 1.2), resolution=0.04))
+    names = ("panda_link0", "panda_link1", "panda_link2", "panda_link3", "panda_link4")
+    keep = np.isin(spheres.body_index, [spheres.link_names.index(k) for k in names])
+    grids = np.meshgrid(np.linspace(-1.2, 1.2, 9), np.linspace(-1.2, 1.0, 5), (-0.5, 0.0, 0.5),
+                        np.linspace(-3.0, -0.8, 5), indexing="ij")
+    Q = np.repeat(home[None], grids[0].size, axis=0)
+    for j in range(4):
+        Q[:, j] = grids[j].ravel()
+    inside = ~brute_force_clear(occ.shape, occ.grid_min, occ.resolution,
+                                spheres.sphere_centers(Q)[:, keep].reshape(-1, 3), np.tile(spheres.radii[keep], len(Q)))
+    rng = np.random.default_rng(2)
+    for _ in range(2):
+        occ.state[...] = rng.choice([VoxelState.UNKNOWN, VoxelState.FREE, VoxelState.OCCUPIED], occ.shape)
+        got = near_body_unknown(occ, spheres, home)
+        assert np.array_equal(got, inside & (occ.state == VoxelState.UNKNOWN)) and got.sum() > 50
+    assert near_body_swept(occ, spheres, home) is near_body_swept(occ, spheres, home)
+    assert not near_body_swept(occ, spheres, home).flags.writeable
+
+
+def test_voxels_in_spheres_equals_argwhere_of_the_brute_force():
+    from compass_manip.mapping.distance import voxels_in_spheres
+
+    rng = np.random.default_rng(11)
+    shape, gm, res = (37, 30, 33), np.array([-0.1, 0.05, -0.02]), 0.01
+    for trial in range(10):
+        select = rng.random(shape) < 0.5
+        n = int(rng.integers(1, 8))
+        c = gm + rng.uniform(-0.05, 0.4, (n, 3))
+        r = rng.uniform(0.0, 0.07, n)
+        want = np.argwhere(select & ~brute_force_clear(shape, gm, res, c, r))
+        got = voxels_in_spheres(select, gm, res, c, r)
+        assert got.dtype == np.int64 and np.array_equal(got, want)
+    assert voxels_in_spheres(select, gm, res, np.zeros((0, 3)), np.zeros(0)).shape == (0, 3)
+    assert voxels_in_spheres(select, gm, res, np.array([[5.0, 5.0, 5.0]]), np.array([0.1])).shape == (0, 3)

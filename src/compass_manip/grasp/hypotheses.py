@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import CompassInputError
-from ..mapping.distance import unsafe_mask
+from ..mapping.distance import voxels_in_spheres
 from ..mapping.occupancy import OccupancyMap, VoxelState
 from ..robot.ik import PandaIK
 from ..robot.spheres import SphereModel
@@ -156,8 +156,7 @@ def needed_voxels(occ: OccupancyMap, hypotheses: list[GraspHypothesis], spheres:
         Q = h.motion(config.n_interp)
         C = spheres.sphere_centers(Q).reshape(-1, 3)
         R = np.tile(spheres.radii + config.inflate, len(Q))
-        inside = ~unsafe_mask(occ, safe_spheres=(C, R)) & (occ.state != VoxelState.FREE)
-        out.append(np.argwhere(inside & strict_unknown))
+        out.append(voxels_in_spheres(strict_unknown, occ.grid_min, occ.resolution, C, R))
     return out
 
 

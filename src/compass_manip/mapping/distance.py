@@ -90,6 +90,29 @@ def mark_in_spheres(mask: np.ndarray, grid_min: np.ndarray, resolution: float, c
     np.logical_not(rest, out=mask)
 
 
+def voxels_in_spheres(select: np.ndarray, grid_min: np.ndarray, resolution: float, centres: np.ndarray,
+                      radii: np.ndarray) -> np.ndarray:
+    """(N, 3) int64 indices, in np.argwhere's order, of the True voxels of select (a bool grid
+    with origin grid_min (3,) [m] and voxel edge resolution [m]) whose centres lie inside one
+    of the spheres (centres (S, 3) [m], radii (S,) [m]). Only the box the spheres span is
+    rasterised, and only where select is True (`_clear_spheres` skips blocks with nothing
+    left), so a few spheres on a large, mostly unselected grid cost little."""
+    c = np.ascontiguousarray(centres, dtype=np.float64).reshape(-1, 3)
+    r = np.ascontiguousarray(radii, dtype=np.float64).reshape(-1)
+    gm, res, shape = np.asarray(grid_min, dtype=np.float64), float(resolution), np.asarray(select.shape)
+    if len(c) == 0:
+        return np.zeros((0, 3), np.int64)
+    lo = np.maximum(np.floor(((c - r[:, None]).min(0) - gm) / res - 0.5).astype(np.int64), 0)
+    hi = np.minimum(np.ceil(((c + r[:, None]).max(0) - gm) / res - 0.5).astype(np.int64), shape - 1)
+    if np.any(lo > hi):
+        return np.zeros((0, 3), np.int64)
+    box = tuple(slice(int(lo[a]), int(hi[a]) + 1) for a in range(3))
+    sel = np.asarray(select, dtype=bool)[box]
+    rest = np.array(sel, order="C")  # a copy: cleared in place
+    _clear_spheres(rest, gm + lo * res, res, c, r)
+    return np.argwhere(sel & ~rest) + lo
+
+
 def mark_robot(mask: np.ndarray, occ_map: OccupancyMap, spheres, Q: np.ndarray, margin: float) -> None:
     """Set True, in place, the voxels of mask (occ_map's grid) inside the robot's spheres
     (`robot.spheres.SphereModel`) grown by margin [m] at every configuration of Q (m, 7) [rad]
@@ -318,24 +341,40 @@ def _clear_spheres(unsafe, grid_min, res, centers, radii):
     the tens of thousands of heavily overlapping spheres of a robot's executed way: each
     (i, j) column of a sphere is one run along k (from the half-chord, settled with the
     exact test), and blocks of 4^3 voxels with no unsafe voxel left are skipped (a count
-    per block is kept as voxels are cleared)."""
+    per block is kept as voxels are cleared; only the blocks the spheres' common bounding
+    box touches are counted, so a few spheres on a large grid cost little)."""
     nx, ny, nz = unsafe.shape
     B = _BLOCK
     bx, by, bz = (nx + B - 1) // B, (ny + B - 1) // B, (nz + B - 1) // B
-    left = np.zeros((bx, by, bz), np.int64)
-    for i in range(nx):
-        for j in range(ny):
-            for k in range(nz):
-                if unsafe[i, j, k]:
-                    left[i // B, j // B, k // B] += 1
     n = (nx, ny, nz)
-    lo = np.empty(3, np.int64)
-    hi = np.empty(3, np.int64)
-    for s in range(centers.shape[0]):
+    S = centers.shape[0]
+    boxes = np.empty((S, 6), np.int64)  # per sphere: lo (3), hi (3) voxel indices, clipped to the grid
+    blo = np.array([nx, ny, nz], np.int64)
+    bhi = np.full(3, -1, np.int64)
+    for s in range(S):
         r = radii[s]
         for a in range(3):
-            lo[a] = max(int(math.floor((centers[s, a] - r - grid_min[a]) / res - 0.5)), 0)
-            hi[a] = min(int(math.ceil((centers[s, a] + r - grid_min[a]) / res - 0.5)), n[a] - 1)
+            boxes[s, a] = max(int(math.floor((centers[s, a] - r - grid_min[a]) / res - 0.5)), 0)
+            boxes[s, 3 + a] = min(int(math.ceil((centers[s, a] + r - grid_min[a]) / res - 0.5)), n[a] - 1)
+        if boxes[s, 0] <= boxes[s, 3] and boxes[s, 1] <= boxes[s, 4] and boxes[s, 2] <= boxes[s, 5]:
+            for a in range(3):
+                blo[a] = min(blo[a], boxes[s, a])
+                bhi[a] = max(bhi[a], boxes[s, 3 + a])
+    if bhi[0] < 0:
+        return
+    left = np.zeros((bx, by, bz), np.int64)
+    for i in range((blo[0] // B) * B, min((bhi[0] // B + 1) * B, nx)):
+        for j in range((blo[1] // B) * B, min((bhi[1] // B + 1) * B, ny)):
+            for k in range((blo[2] // B) * B, min((bhi[2] // B + 1) * B, nz)):
+                if unsafe[i, j, k]:
+                    left[i // B, j // B, k // B] += 1
+    lo = np.empty(3, np.int64)
+    hi = np.empty(3, np.int64)
+    for s in range(S):
+        r = radii[s]
+        for a in range(3):
+            lo[a] = boxes[s, a]
+            hi[a] = boxes[s, 3 + a]
         if lo[0] > hi[0] or lo[1] > hi[1] or lo[2] > hi[2]:
             continue
         kc = (centers[s, 2] - grid_min[2]) / res - 0.5

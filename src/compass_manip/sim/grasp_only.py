@@ -27,7 +27,7 @@ from ..grasp.candidates import AntipodalProposer, PinnedProposer
 from ..grasp.select import GraspSelectConfig, GraspSelection, select_grasp
 from ..grasp.target import TargetModel, backproject, build_target_model, TargetConfig
 from ..mapping.observe import integrate_observation
-from ..mapping.distance import unsafe_mask
+from ..mapping.distance import mark_in_spheres
 from ..mapping.occupancy import MapConfig, OccupancyMap, VoxelState
 from ..robot.ik import ik_camera
 from ..robot.model import GRIPPER_MAX_WIDTH, Q_MAX, Q_MIN
@@ -212,22 +212,40 @@ def near_field_configs(world: World, rng: np.random.Generator, n: int) -> list[n
     return out
 
 
+_NEAR_BODY: dict = {}
+
+
+def near_body_swept(occ: OccupancyMap, spheres, q_home: np.ndarray) -> np.ndarray:
+    """(nx, ny, nz) bool, read-only: the voxels of occ's grid whose centres lie inside the
+    spheres of links 0-4 swept around q_home (joint 1 within +-1.2 rad, joints 2-4 over a
+    grid). A constant of the robot and the grid, computed once per sphere model, grid and
+    q_home (71,550 spheres)."""
+    q_home = np.asarray(q_home, dtype=np.float64)
+    key = (id(spheres), occ.shape, occ.resolution, occ.grid_min.tobytes(), q_home.tobytes())
+    if key not in _NEAR_BODY:
+        names = ("panda_link0", "panda_link1", "panda_link2", "panda_link3", "panda_link4")
+        keep = np.isin(spheres.body_index, [spheres.link_names.index(k) for k in names])
+        grids = np.meshgrid(np.linspace(-1.2, 1.2, 9), np.linspace(-1.2, 1.0, 5), (-0.5, 0.0, 0.5),
+                            np.linspace(-3.0, -0.8, 5), indexing="ij")
+        Q = np.repeat(q_home[None], grids[0].size, axis=0)
+        for j in range(4):
+            Q[:, j] = grids[j].ravel()
+        inside = np.zeros(occ.shape, bool)
+        mark_in_spheres(inside, occ.grid_min, occ.resolution, spheres.sphere_centers(Q)[:, keep].reshape(-1, 3),
+                        np.tile(spheres.radii[keep], len(Q)))
+        inside.flags.writeable = False
+        if len(_NEAR_BODY) > 8:
+            _NEAR_BODY.clear()
+        _NEAR_BODY[key] = (spheres, inside)  # the model is kept so its id stays unique
+    return _NEAR_BODY[key][1]
+
+
 def near_body_unknown(occ: OccupancyMap, spheres, q_home: np.ndarray) -> np.ndarray:
     """NEAR-BODY ASSUMPTION (stands in for the NFA scan, which the exploration branch owns):
-    unknown voxels inside the volume swept by links 0-4 around the home posture (joint 1
-    within +-1.2 rad, joints 2-4 over a grid) are taken as free. Voxels seen occupied there
-    stay unsafe. A wrist camera cannot see the space its own elbow moves through."""
-    names = ("panda_link0", "panda_link1", "panda_link2", "panda_link3", "panda_link4")
-    keep = np.isin(spheres.body_index, [spheres.link_names.index(k) for k in names])
-    grids = np.meshgrid(np.linspace(-1.2, 1.2, 9), np.linspace(-1.2, 1.0, 5), (-0.5, 0.0, 0.5),
-                        np.linspace(-3.0, -0.8, 5), indexing="ij")
-    Q = np.repeat(np.asarray(q_home, dtype=np.float64)[None], grids[0].size, axis=0)
-    for j in range(4):
-        Q[:, j] = grids[j].ravel()
-    C = spheres.sphere_centers(Q)[:, keep].reshape(-1, 3)
-    R = np.tile(spheres.radii[keep], len(Q))
-    swept = ~unsafe_mask(occ, safe_spheres=(C, R)) & (occ.state != VoxelState.FREE)
-    return swept & (occ.state == VoxelState.UNKNOWN)
+    unknown voxels inside the volume swept by links 0-4 around the home posture
+    (`near_body_swept`) are taken as free. Voxels seen occupied there stay unsafe. A wrist
+    camera cannot see the space its own elbow moves through."""
+    return near_body_swept(occ, spheres, q_home) & (occ.state == VoxelState.UNKNOWN)
 
 
 def oracle_detection(world: World, frame) -> np.ndarray:
