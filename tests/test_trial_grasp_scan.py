@@ -225,3 +225,42 @@ def test_near_body_halo_keeps_the_assumption_away_from_seen_obstacles(monkeypatc
     assert plain[near & ~occupied].any() and not halo[near & ~occupied].any()
     with pytest.raises(CompassInputError, match="near_body_halo"):
         GraspTrialConfig(near_body_halo=-0.1)
+
+
+def test_grasp_map_integrates_its_frames_when_read_the_same_map_as_on_arrival():
+    """Frames and motions wait until the map or the swept space is read (a trial that never
+    reaches GRASP pays nothing for the 1 cm map); the map then equals integrating each frame
+    as it came, in order, and the swept space marking each motion as it came; frames after a
+    read wait for the next read."""
+    from compass_manip.mapping.distance import mark_robot
+    from compass_manip.mapping.observe import integrate_observation
+    from compass_manip.mapping.occupancy import MapConfig, OccupancyMap
+
+    world = empty_cabinet_world()
+    try:
+        task, wm, q_view, view = observed_view(world)
+        q_home = np.asarray(world.robot.q_home)
+        frames = [world.render(q_home + (q_view - q_home) * s, rgb=False, seg=False) for s in np.linspace(0, 1, 5)]
+        gm = GraspMap(world.robot, keep_frames=False)
+        eager = OccupancyMap(MapConfig())
+        for f in frames[:3]:
+            gm.frame(f, None)
+            integrate_observation(eager, f.observation(), gm.spheres, gm.max_range)
+        gm.motion(SimpleNamespace(q=np.stack([q_home, q_view])), 0.0, 1.0)
+        gm.motion(SimpleNamespace(q=np.stack([q_view, q_home])), 1.0, 2.0)
+        assert np.all(gm._occ.state == VoxelState.UNKNOWN) and len(gm._pending) == 3  # nothing integrated yet
+        assert not gm._swept_all.any() and len(gm._unmarked) == 2  # nor marked
+        marked = np.zeros(gm._occ.shape, bool)
+        for a, b in ((q_home, q_view), (q_view, q_home)):  # one motion at a time, as on arrival
+            mark_robot(marked, gm._occ, gm.spheres, densify(np.stack([a, b]), gm.sweep_step), gm.swept_margin)
+        assert np.array_equal(gm.swept_all, marked) and marked.sum() > 1000 and not gm._unmarked
+        assert np.array_equal(gm.occ.state, eager.state) and np.array_equal(gm.occ.logodds, eager.logodds)
+        for f in frames[3:]:
+            gm.frame(f, None)
+            integrate_observation(eager, f.observation(), gm.spheres, gm.max_range)
+        assert len(gm._pending) == 2
+        assert np.array_equal(gm.swept_all & (eager.state != VoxelState.OCCUPIED), gm.swept)  # reads the map
+        assert len(gm._pending) == 0 and np.array_equal(gm.occ.logodds, eager.logodds)
+        assert np.count_nonzero(gm.occ.state != VoxelState.UNKNOWN) > 1000
+    finally:
+        world.close()

@@ -14,6 +14,8 @@ does; `keep_frames`). `GraspWorld` gives `trial.grasp_views.GraspInspector` this
 validity checker (the views are still planned on the method's map, by its rules)."""
 from __future__ import annotations
 
+from collections import deque
+
 import numpy as np
 
 from ..errors import CompassInputError
@@ -35,24 +37,44 @@ class GraspMap(TrialObserver):
     start_body_margin [m] inside the confined space's box, as the method's world model,
     `exploration.world_model.start_shell`) are its own space (`swept`); with
     keep_frames every frame's observation (depth, K, pose, q; colour dropped) is kept in
-    `frames`, in order, for `fine_map`."""
+    `frames`, in order, for `fine_map`.
+
+    Frames are integrated into `occ`, and motions marked into `swept_all`, when these are
+    read (frames in order: the same map as integrating each on arrival; the marks are a
+    union, in one pass): a trial that never reaches INSPECT or GRASP (the target not found)
+    pays nothing for this map."""
 
     def __init__(self, robot, map_config: MapConfig | None = None, max_range: float = 1.5,
                  swept_margin: float = 0.05, start_margin: float = 0.10, sweep_step: float = 0.05,
                  keep_frames: bool = True, task=None, start_body_margin: float = 0.05) -> None:
-        self.occ = OccupancyMap(map_config or MapConfig())
+        self._occ = OccupancyMap(map_config or MapConfig())
+        self._pending: deque[Observation] = deque()  # frames not yet integrated into _occ, in order
         self.keep_frames = bool(keep_frames)
         self.frames: list[Observation] = []
         self.spheres = panda_sphere_model(robot)
         self.max_range, self.swept_margin, self.start_margin, self.sweep_step = \
             max_range, swept_margin, start_margin, sweep_step
         self.task, self.start_body_margin = task, start_body_margin
-        self.swept_all = np.zeros(self.occ.shape, bool)
+        self._swept_all = np.zeros(self._occ.shape, bool)
+        self._unmarked: list[np.ndarray] = []  # configurations (m, 7) [rad] of motions not yet marked
         self._way: list[np.ndarray] = []
-        self._fine = FineMaps(self.occ, self.spheres, max_range)  # one fine map per box, kept
+        self._fine = FineMaps(self._occ, self.spheres, max_range)  # one fine map per box, kept
 
-    def _mark(self, Q: np.ndarray, margin: float) -> None:
-        mark_robot(self.swept_all, self.occ, self.spheres, Q, margin)
+    @property
+    def occ(self) -> OccupancyMap:
+        """The 1 cm map with every frame so far integrated (the pending ones first, in order)."""
+        while self._pending:
+            integrate_observation(self._occ, self._pending[0], self.spheres, self.max_range)
+            self._pending.popleft()
+        return self._occ
+
+    @property
+    def swept_all(self) -> np.ndarray:
+        """(nx,ny,nz) bool: the arm's spheres at the start and along every motion so far."""
+        if self._unmarked:
+            Q, self._unmarked = np.vstack(self._unmarked), []
+            mark_robot(self._swept_all, self._occ, self.spheres, Q, self.swept_margin)
+        return self._swept_all
 
     @property
     def swept(self) -> np.ndarray:
@@ -67,22 +89,23 @@ class GraspMap(TrialObserver):
     def start(self, world, method) -> None:
         q = np.asarray(world.q, dtype=np.float64)[None]
         if self.task is None:
-            self._mark(q, self.start_margin)
+            mark_robot(self._swept_all, self._occ, self.spheres, q, self.start_margin)
         else:  # as the method's world model: inside the confined space's box only the body margin
-            self.swept_all |= start_shell(self.occ, self.spheres, q[0], self.start_body_margin, self.start_margin,
+            self._swept_all |= start_shell(self.occ, self.spheres, q[0], self.start_body_margin, self.start_margin,
                                           self.task)
         self._way.append(q)
 
     def motion(self, trajectory, t_start: float, t_end: float) -> None:
-        Q = densify(np.asarray(trajectory.q), self.sweep_step)
-        self._mark(Q, self.swept_margin)
-        self._way.append(np.asarray(Q, dtype=np.float64))
+        Q = np.asarray(densify(np.asarray(trajectory.q), self.sweep_step), dtype=np.float64)
+        self._unmarked.append(Q)
+        self._way.append(Q)
 
     def frame(self, frame, method) -> None:
         obs = frame.observation()
-        integrate_observation(self.occ, obs, self.spheres, self.max_range)
+        kept = Observation(obs.depth, None, obs.K, obs.T_world_cam, obs.t, obs.q)  # colour is not needed
+        self._pending.append(kept)
         if self.keep_frames:
-            self.frames.append(Observation(obs.depth, None, obs.K, obs.T_world_cam, obs.t, obs.q))
+            self.frames.append(kept)
 
     def fine_map_around(self, points: np.ndarray, margin: float, upsample: int = 2) -> OccupancyMap:
         """`fine_map` over the box of points (N,3) [m] grown by margin [m]: one box for the

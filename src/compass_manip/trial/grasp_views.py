@@ -28,7 +28,7 @@ from ..errors import CompassInputError
 from ..exploration.viewpoints import sample_direction_in_cone, view_pose
 from ..grasp.candidates import AntipodalProposer, GraspCandidates, PinnedProposer
 from ..grasp.hypotheses import grasp_hypotheses, needed_voxels, strict_unsafe_mask
-from ..grasp.select import base_volume
+from ..grasp.robot_space import base_volume_mask
 from ..grasp.target import build_target_model
 from ..mapping.occupancy import OccupancyMap
 from ..robot.ik import PandaIK
@@ -133,11 +133,11 @@ class GraspInspector:
         pts = np.asarray(detection.points_world, dtype=np.float64).reshape(-1, 3)
         target = build_target_model(pts, detection.T_world_cam[:3, 3], self.task.target, occ, self.target_config)
         cur = wm.spheres.sphere_centers(q[None])[0]
-        bc, br = base_volume(wm.spheres, q)
-        safe = (np.vstack([cur, bc]), np.r_[wm.spheres.radii + self.select_config.robot_clearance, br])
+        safe = (cur, wm.spheres.radii + self.select_config.robot_clearance)
+        base = base_volume_mask(wm.spheres, occ)  # the base column's space (constant: computed once)
         near = None if self.near_body is None else self.near_body(occ)
-        extra = wm.swept if near is None else (wm.swept | near)
-        own = extra if self.strict_safe is None else np.asarray(self.strict_safe(occ), dtype=bool)
+        extra = (wm.swept if near is None else (wm.swept | near)) | base
+        own = extra if self.strict_safe is None else np.asarray(self.strict_safe(occ), dtype=bool) | base
         if self.strict_safe is not None and near is not None:
             own = own | near
         strict = strict_unsafe_mask(occ, target, self.select_config.clearance, safe, own)

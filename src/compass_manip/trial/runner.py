@@ -115,7 +115,6 @@ def run_trial_full(spec: TrialSpec, config: TrialConfig | None = None, progress=
     grasp, inspect = None, None
     own = getattr(getattr(method, "world", None), "kin", None)  # methods with their own world model
     gmap = GraspMap(world.robot, task=task) if config.grasp.enabled and config.grasp.grasp_map else None
-    grasp_occ = method.occupancy if gmap is None else gmap.occ  # read at GRASP: filled by every frame
     observers = observer if gmap is None else ObserverGroup([gmap] + ([observer] if observer is not None else []))
     n_inspect = config.grasp.inspect.n_views
     rules = method.world.config if own is not None else None  # the method's rules for unknown space
@@ -160,6 +159,7 @@ def run_trial_full(spec: TrialSpec, config: TrialConfig | None = None, progress=
         def grasp(q, detection, moved, look=None):  # INSPECT's grasp hypotheses are checked first
             pinned = inspector.pinned if isinstance(inspector, GraspInspector) else None
             swept = None if own is None else (lambda: method.world.swept) if gmap is None else (lambda: gmap.swept)
+            grasp_occ = method.occupancy if gmap is None else gmap.occ  # every frame so far integrated
             return run_grasp_stage(world, grasp_occ, detection, task, q, moved, grasp_config, grasp_rng, charge,
                                    grasp_map=gmap, pinned=pinned, method_rules=rules, looker=looker, look=look,
                                    method_swept=swept)
