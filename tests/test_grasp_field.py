@@ -155,20 +155,14 @@ def test_near_body_unknown_is_the_swept_spheres_unknown_voxels_and_cached():
     whose centres lie inside the links 0-4 spheres swept near home (brute force on a 4 cm
     grid), for two maps of the same grid with different states."""
     from compass_manip.robot.model import RobotConfig
-    from compass_manip.sim.grasp_only import near_body_swept, near_body_unknown
+    from compass_manip.sim.grasp_only import near_body_spheres, near_body_swept, near_body_unknown
 
     spheres = panda_sphere_model()
     home = np.asarray(RobotConfig().q_home)
     occ = OccupancyMap(MapConfig(box_min=(-0.6, -0.7, -0.1), box_max=(0.9, 0.7, 1.2), resolution=0.04))
-    names = ("panda_link0", "panda_link1", "panda_link2", "panda_link3", "panda_link4")
-    keep = np.isin(spheres.body_index, [spheres.link_names.index(k) for k in names])
-    grids = np.meshgrid(np.linspace(-1.2, 1.2, 9), np.linspace(-1.2, 1.0, 5), (-0.5, 0.0, 0.5),
-                        np.linspace(-3.0, -0.8, 5), indexing="ij")
-    Q = np.repeat(home[None], grids[0].size, axis=0)
-    for j in range(4):
-        Q[:, j] = grids[j].ravel()
-    inside = ~brute_force_clear(occ.shape, occ.grid_min, occ.resolution,
-                                spheres.sphere_centers(Q)[:, keep].reshape(-1, 3), np.tile(spheres.radii[keep], len(Q)))
+    c, r = near_body_spheres(spheres, home)
+    assert len(r) == 675 * np.isin(spheres.body_index, range(5)).sum()  # links 0-4 at 9 x 5 x 3 x 5 postures
+    inside = ~brute_force_clear(occ.shape, occ.grid_min, occ.resolution, c, r)
     rng = np.random.default_rng(2)
     for _ in range(2):
         occ.state[...] = rng.choice([VoxelState.UNKNOWN, VoxelState.FREE, VoxelState.OCCUPIED], occ.shape)

@@ -215,24 +215,29 @@ def near_field_configs(world: World, rng: np.random.Generator, n: int) -> list[n
 _NEAR_BODY: dict = {}
 
 
+def near_body_spheres(spheres, q_home: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(centres (S, 3) [m], radii (S,) [m]) of links 0-4's spheres swept around q_home: joint 1
+    within +-1.2 rad, joints 2-4 over a grid (675 configurations)."""
+    names = ("panda_link0", "panda_link1", "panda_link2", "panda_link3", "panda_link4")
+    keep = np.isin(spheres.body_index, [spheres.link_names.index(k) for k in names])
+    grids = np.meshgrid(np.linspace(-1.2, 1.2, 9), np.linspace(-1.2, 1.0, 5), (-0.5, 0.0, 0.5),
+                        np.linspace(-3.0, -0.8, 5), indexing="ij")
+    Q = np.repeat(np.asarray(q_home, dtype=np.float64)[None], grids[0].size, axis=0)
+    for j in range(4):
+        Q[:, j] = grids[j].ravel()
+    return spheres.sphere_centers(Q)[:, keep].reshape(-1, 3), np.tile(spheres.radii[keep], len(Q))
+
+
 def near_body_swept(occ: OccupancyMap, spheres, q_home: np.ndarray) -> np.ndarray:
-    """(nx, ny, nz) bool, read-only: the voxels of occ's grid whose centres lie inside the
-    spheres of links 0-4 swept around q_home (joint 1 within +-1.2 rad, joints 2-4 over a
-    grid). A constant of the robot and the grid, computed once per sphere model, grid and
-    q_home (71,550 spheres)."""
+    """(nx, ny, nz) bool, read-only: the voxels of occ's grid whose centres lie inside
+    `near_body_spheres`. A constant of the robot and the grid, computed once per sphere
+    model, grid and q_home (71,550 spheres)."""
     q_home = np.asarray(q_home, dtype=np.float64)
     key = (id(spheres), occ.shape, occ.resolution, occ.grid_min.tobytes(), q_home.tobytes())
     if key not in _NEAR_BODY:
-        names = ("panda_link0", "panda_link1", "panda_link2", "panda_link3", "panda_link4")
-        keep = np.isin(spheres.body_index, [spheres.link_names.index(k) for k in names])
-        grids = np.meshgrid(np.linspace(-1.2, 1.2, 9), np.linspace(-1.2, 1.0, 5), (-0.5, 0.0, 0.5),
-                            np.linspace(-3.0, -0.8, 5), indexing="ij")
-        Q = np.repeat(q_home[None], grids[0].size, axis=0)
-        for j in range(4):
-            Q[:, j] = grids[j].ravel()
+        c, r = near_body_spheres(spheres, q_home)
         inside = np.zeros(occ.shape, bool)
-        mark_in_spheres(inside, occ.grid_min, occ.resolution, spheres.sphere_centers(Q)[:, keep].reshape(-1, 3),
-                        np.tile(spheres.radii[keep], len(Q)))
+        mark_in_spheres(inside, occ.grid_min, occ.resolution, c, r)
         inside.flags.writeable = False
         if len(_NEAR_BODY) > 8:
             _NEAR_BODY.clear()
