@@ -33,7 +33,7 @@ from ..mapping.occupancy import OccupancyMap
 from ..motion.primitives import DistanceGrid, PrimitiveSet
 from ..motion.rrt_kernels import states_valid
 from ..motion.validity import ValidityChecker, ValidityConfig
-from ..robot.spheres import SphereModel
+from ..robot.spheres import SphereModel, weld_groups
 from .carve import grasp_unsafe_box
 from .field import checked_field, coarse_distances, fine_labels_in_box, upsample_mask
 from .target import TargetModel
@@ -168,7 +168,7 @@ def exact_boxes(occ: OccupancyMap, a: np.ndarray, b: np.ndarray, target: TargetM
 
 def tight_link_boxes(coarse: np.ndarray, a: np.ndarray, b: np.ndarray, occ: OccupancyMap, spheres: SphereModel,
                      cur: np.ndarray, near: float, grow: float) -> list:
-    """Map-voxel index ranges (relative to the checked box [a, b)), one per link of the robot
+    """Map-voxel index ranges (relative to the checked box [a, b)), one per moving link of the robot
     as it stands (cur: sphere centres (S,3) [m] at q_current) with a sphere whose map-grid
     clearance bound (coarse: the box's map-grid distances, less the offset to the voxel
     centre, half a voxel diagonal and the radius) is below `near` [m]: that link's spheres
@@ -185,7 +185,9 @@ def tight_link_boxes(coarse: np.ndarray, a: np.ndarray, b: np.ndarray, occ: Occu
     ii = idx[inside]
     off = np.linalg.norm((rel[inside] - ii - 0.5) * res, axis=1)
     bound[inside] = coarse[ii[:, 0], ii[:, 1], ii[:, 2]] - off - 0.5 * math.sqrt(3.0) * res
-    tight = bound - spheres.radii < near
+    g = weld_groups(spheres.kinematics)
+    moving = g[spheres.body_index] != g[0]  # the base (welded to the world) is never checked against the map
+    tight = moving & (bound - spheres.radii < near)
     out = []
     for link in np.unique(spheres.body_index[tight]):
         m = spheres.body_index == link
