@@ -56,8 +56,9 @@ def checked_field(unsafe: np.ndarray, origin: np.ndarray, resolution: float, inn
     resolution [m]; inner_a / inner_b (3,) map-voxel index range [a, b) of the inner box;
     fine_unsafe: the inner box's fine unsafe voxels (default: `unsafe` there, split), which
     must lie in map voxels outside safe_spheres; more_boxes: further (a, b) index ranges
-    computed exactly from `unsafe` split (each overlays the field built so far: its
-    outside is bounded by that field); safe_spheres (centres (S,3), radii (S,) [m]):
+    computed exactly from `unsafe` split, or (a, b, fine unsafe cells of that box, the same
+    conditions as fine_unsafe) (each overlays the field built so far: its outside is
+    bounded by that field); safe_spheres (centres (S,3), radii (S,) [m]):
     spheres whose map voxels were all made safe (the robot as it stands): every unsafe
     map-voxel centre is farther than R from such a sphere's centre, so no fine unsafe
     centre is nearer than R - |c - c_s| - (h_map - h_fine) to a fine centre c; that bound
@@ -72,10 +73,10 @@ def checked_field(unsafe: np.ndarray, origin: np.ndarray, resolution: float, inn
         raise CompassInputError(f"coarse has shape {coarse.shape}; the mask's shape {unsafe.shape} is required")
     fine_res = resolution / upsample
     out = None
-    for n, (a, b) in enumerate([(inner_a, inner_b)] + list(more_boxes)):
-        a = np.clip(np.asarray(a, dtype=np.int64), 0, shape)
-        b = np.clip(np.asarray(b, dtype=np.int64), a, shape)
-        fu = fine_unsafe if n == 0 else None
+    for n, box in enumerate([(inner_a, inner_b, fine_unsafe)] + list(more_boxes)):
+        a = np.clip(np.asarray(box[0], dtype=np.int64), 0, shape)
+        b = np.clip(np.asarray(box[1], dtype=np.int64), a, shape)
+        fu = box[2] if len(box) > 2 else None
         if fu is None:
             fu = upsample_mask(unsafe[a[0]:b[0], a[1]:b[1], a[2]:b[2]], upsample)
         if fu.shape != tuple(upsample * (b - a)):

@@ -248,11 +248,22 @@ def _envelope_1d(f, n, d, v, z):
         d[q] = (q - p) * (q - p) + f[p]
 
 
+def _distances(unsafe: np.ndarray, res: float) -> np.ndarray:
+    """Distances [m] (float32) from each voxel centre to the nearest unsafe voxel centre
+    (at least one voxel must be unsafe: every caller tests that). The squared distances in
+    voxels are whole numbers; they are kept in float32 while every one possible is below
+    2**24 (exact there: the same result as float64, with half the memory traffic), else in
+    float64."""
+    shape = np.shape(unsafe)
+    exact32 = sum(int(n) ** 2 for n in shape) < 2**24
+    sq = np.empty(shape, np.float32 if exact32 else np.float64)
+    return _distances_into(unsafe, float(res), sq)
+
+
 @njit(cache=True, parallel=True)
-def _distances(unsafe, res):
-    """Distances [m] (float32) from each voxel centre to the nearest unsafe voxel centre."""
+def _distances_into(unsafe, res, sq):
+    """`_distances` with sq, a scratch array of unsafe's shape (float32 or float64)."""
     nx, ny, nz = unsafe.shape
-    sq = np.empty((nx, ny, nz))
     for i in prange(nx):  # along z: nearest unsafe voxel on the line, two scans
         for j in range(ny):
             last = -1

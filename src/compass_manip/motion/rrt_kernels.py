@@ -44,8 +44,9 @@ def states_valid(Q, args):
 
 @nb.njit(cache=True)
 def _grow(args, nodes, parent, counts, t, q_target, step, res, connect):
-    """`tree.extend` on tree t of several sharing one `counts` array."""
-    r, k, counts[t], n_checks = extend(args, nodes, parent, counts[t], q_target, step, res, connect)
+    """`tree.extend` on tree t of several sharing one `counts` array (the planner's roots, the
+    start and the goals, are checked valid before any tree is grown)."""
+    r, k, counts[t], n_checks = extend(args, nodes, parent, counts[t], q_target, step, res, connect, True)
     return r, k, n_checks
 
 

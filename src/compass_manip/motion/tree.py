@@ -12,7 +12,7 @@ import numba as nb
 import numpy as np
 
 from ..robot.model import check_q
-from .validity import edge_valid_kernel
+from .validity import edge_valid_from_kernel, edge_valid_kernel
 
 TRAPPED, ADVANCED, REACHED = 0, 1, 2
 #: Most nodes one `extend` call may add (connect mode).
@@ -28,6 +28,18 @@ def edge_ok(q0, q1, res, args):
         m = max(m, abs(q1[j] - q0[j]))
     n = max(1, int(np.ceil(m / res)))
     return edge_valid_kernel(q0, q1, n, args.kin, args.robot, args.grid, args.prims, args.limits, args.params)
+
+
+@nb.njit(cache=True)
+def edge_ok_from(q0, q1, res, args):
+    """`edge_ok` for a q0 known to be valid on the checker of `args` (a tree node: roots are
+    checked before planning, every other node was the end of a checked edge): the same
+    answer without checking q0 again."""
+    m = 0.0
+    for j in range(q0.shape[0]):
+        m = max(m, abs(q1[j] - q0[j]))
+    n = max(1, int(np.ceil(m / res)))
+    return edge_valid_from_kernel(q0, q1, n, args.kin, args.robot, args.grid, args.prims, args.limits, args.params)
 
 
 @nb.njit(cache=True)
@@ -55,9 +67,11 @@ def steer(q_from, q_to, step):
 
 
 @nb.njit(cache=True)
-def extend(args, nodes, parent, count, q_target, step, res, connect):
+def extend(args, nodes, parent, count, q_target, step, res, connect, nodes_valid):
     """Extend a tree from its node nearest q_target by steps of at most `step` [rad]: one
     step (connect=False) or until q_target is reached or an edge is blocked (connect=True).
+    nodes_valid: every node is known valid on the checker (the roots were checked), so an
+    edge's first state is not checked again (`edge_ok_from`; the same answers).
 
     Adds nodes in place after the first `count` rows. Returns (TRAPPED | ADVANCED |
     REACHED, index of the last node reached, new count, edge checks).
@@ -69,7 +83,7 @@ def extend(args, nodes, parent, count, q_target, step, res, connect):
             break
         q_new, reached = steer(nodes[k], q_target, step)
         n_checks += 1
-        if not edge_ok(nodes[k], q_new, res, args):
+        if not (edge_ok_from(nodes[k], q_new, res, args) if nodes_valid else edge_ok(nodes[k], q_new, res, args)):
             return result, k, count, n_checks
         nodes[count] = q_new
         parent[count] = k
@@ -84,14 +98,14 @@ def extend(args, nodes, parent, count, q_target, step, res, connect):
 
 
 @nb.njit(cache=True)
-def extend_each(args, nodes, parent, count, targets, step, res, connect, stop_count):
+def extend_each(args, nodes, parent, count, targets, step, res, connect, stop_count, nodes_valid):
     """`extend` towards each row of targets (m, 7) [rad] in order until the tree holds
     stop_count nodes (checked before each call). Returns (new count, calls made, edge checks)."""
     used, checks = 0, 0
     for i in range(targets.shape[0]):
         if count >= stop_count:
             break
-        _, _, count, c = extend(args, nodes, parent, count, targets[i], step, res, connect)
+        _, _, count, c = extend(args, nodes, parent, count, targets[i], step, res, connect, nodes_valid)
         used += 1
         checks += c
     return count, used, checks
@@ -114,12 +128,16 @@ class JointTree:
         self.count = 1
         self.step, self.res = float(step), float(res)
         self.edge_checks = 0
+        # a valid root makes every node valid: edges then skip their (known) first state; an
+        # invalid root fails every edge from it, as before (the tree never grows)
+        self.root_valid = bool(validity.is_valid(q_root))
 
     def extend(self, q_target: np.ndarray, connect: bool = False) -> tuple[int, int]:
         """Grow towards q_target (7,) [rad]; returns (TRAPPED | ADVANCED | REACHED, index of
         the last node reached)."""
         r, k, self.count, c = extend(self.args, self.nodes, self.parent, self.count,
-                                     np.asarray(q_target, dtype=np.float64), self.step, self.res, connect)
+                                     np.asarray(q_target, dtype=np.float64), self.step, self.res, connect,
+                                     self.root_valid)
         self.edge_checks += c
         return int(r), int(k)
 
@@ -128,7 +146,7 @@ class JointTree:
         fewer than stop_count nodes, in one compiled loop; returns how many targets were used."""
         targets = np.ascontiguousarray(targets, dtype=np.float64).reshape(-1, self.nodes.shape[1])
         self.count, used, c = extend_each(self.args, self.nodes, self.parent, self.count, targets, self.step,
-                                          self.res, connect, int(stop_count))
+                                          self.res, connect, int(stop_count), self.root_valid)
         self.edge_checks += c
         return int(used)
 

@@ -28,7 +28,7 @@ from .edge_bounds import edge_valid_adaptive_kernel, motion_bounds
 from .primitives import DistanceGrid, PrimitiveSet, grid_clearance, primitives_distance
 
 __all__ = ["DistanceGrid", "ValidityChecker", "ValidityConfig", "config_valid_kernel", "batch_valid_kernel",
-           "edge_valid_kernel", "edge_first_invalid_kernel", "clearance_kernel"]
+           "edge_valid_kernel", "edge_valid_from_kernel", "edge_first_invalid_kernel", "clearance_kernel"]
 
 
 #: Largest number of spheres under one intermediate bounding sphere (link -> cluster -> sphere).
@@ -385,14 +385,17 @@ def batch_valid_kernel(Q, kin, robot, grid, prims, limits, params):
     return out
 
 
-@nb.njit(cache=True)
-def edge_valid_kernel(q0, q1, n, kin, robot, grid, prims, limits, params):
-    """Validity of the n+1 states q0 + (q1-q0) * k/n, k = 0..n, tested in bisection order."""
+@nb.njit(cache=True, inline="always")
+def _edge_states_valid(q0, q1, n, check_start, kin, robot, grid, prims, limits, params):
+    """Validity of the states q0 + (q1-q0) * k/n, k = 0..n (k = 0 only if check_start), in
+    bisection order: k = n, k = 0, then halving steps."""
     L, S = kin.parent.shape[0], robot.radii.shape[0]
     links = np.empty((L, 4, 4))
     W = np.empty((S, 3))
     q = np.empty(7)
     for k in (n, 0):
+        if k == 0 and not check_start:
+            continue
         for j in range(7):
             q[j] = q0[j] + (q1[j] - q0[j]) * (k / n)
         if not config_valid_kernel(q, kin, robot, grid, prims, limits, params, links, W):
@@ -409,6 +412,20 @@ def edge_valid_kernel(q0, q1, n, kin, robot, grid, prims, limits, params):
                 return False
         step = half
     return True
+
+
+@nb.njit(cache=True)
+def edge_valid_kernel(q0, q1, n, kin, robot, grid, prims, limits, params):
+    """Validity of the n+1 states q0 + (q1-q0) * k/n, k = 0..n, tested in bisection order."""
+    return _edge_states_valid(q0, q1, n, True, kin, robot, grid, prims, limits, params)
+
+
+@nb.njit(cache=True)
+def edge_valid_from_kernel(q0, q1, n, kin, robot, grid, prims, limits, params):
+    """`edge_valid_kernel` for a q0 known to be valid on this checker (a planner tree's node):
+    the states k = 1..n only (k = 0 is q0 itself, exactly: q0 + d * 0 == q0), so the answer
+    is the same and one state check cheaper."""
+    return _edge_states_valid(q0, q1, n, False, kin, robot, grid, prims, limits, params)
 
 
 @nb.njit(cache=True)
