@@ -120,3 +120,24 @@ def test_grasp_map_integrates_frames_at_1cm_and_marks_the_way_but_not_seen_obsta
             (occ.state[v[1, 0], v[1, 1], v[1, 2]] != VoxelState.OCCUPIED)
     finally:
         world.close()
+
+
+def test_up_candidates_stand_below_and_in_front_of_the_voxels_looking_up():
+    from compass_manip.trial.grasp_views import up_candidates
+    rng = np.random.default_rng(0)
+    cfg = InspectConfig(n_up=40, up_elevation=0.6, up_cone=0.3, view_distance=(0.25, 0.4))
+    look, shoulder = np.array([0.55, 0.05, 0.62]), np.array([0.0, 0.0, 0.333])
+    T = up_candidates(look[None], np.array([0.9, 0.1, -0.3]), shoulder, cfg, rng)
+    assert T.shape == (40, 4, 4)
+    z = T[:, :3, 2]
+    d = np.linalg.norm(T[:, :3, 3] - look, axis=1)
+    assert np.all((d >= 0.25 - 1e-9) & (d <= 0.4 + 1e-9))
+    assert np.allclose(np.einsum("ij,ij->i", (look - T[:, :3, 3]) / d[:, None], z), 1.0)  # looking at the point
+    assert np.all(z[:, 2] > 0.0) and np.all(T[:, 2, 3] < look[2])  # from below, looking up
+    assert np.all(T[:, 0, 3] < look[0])  # on the robot's side of the voxels
+    h = np.array([0.9, 0.1, 0.0]) / np.linalg.norm([0.9, 0.1])
+    up = np.cos(0.6) * h + np.array([0.0, 0.0, np.sin(0.6)])
+    assert np.all(z[0::2] @ up >= np.cos(0.3) - 1e-9)  # even ones: the approach raised by up_elevation
+    back = (look - shoulder) / np.linalg.norm(look - shoulder)
+    assert np.all(z[1::2] @ back >= np.cos(0.3) - 1e-9)  # odd ones: from the shoulder's side
+    assert up_candidates(np.zeros((0, 3)), h, shoulder, cfg, rng).shape == (0, 4, 4)
