@@ -21,10 +21,12 @@ along the way, and calls again: the hypotheses are recomputed on the new map.
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 
 import numpy as np
 
 from ..errors import CompassInputError
+from ..exploration.escape import EscapeConfig, escape_path
 from ..exploration.viewpoints import sample_direction_in_cone, view_pose
 from ..grasp.candidates import AntipodalProposer, GraspCandidates, PinnedProposer
 from ..grasp.hypotheses import grasp_hypotheses, needed_voxels, strict_unsafe_mask
@@ -223,8 +225,17 @@ class GraspInspector:
         self.last.update(n_valid=len(Q), n_ik_views=n_ik, n_up_valid=int(np.count_nonzero(up)),
                          best_gain=round(float(gain.max()), 1),
                          best_up_gain=round(float(gain[up].max()), 1) if up.any() else 0.0)
-        p = plan_to_best(q, Q, gain, 1000.0 * config.min_fraction, config.n_goals, wm.checker, config.planner,
+        q_from, way_out = q, None
+        if config.escape and not wm.checker.is_valid(q):  # a frame saw something within the margin of the arm
+            way_out = escape_path(wm.checker, q, EscapeConfig(), rng)
+            self.last["escaped"] = way_out is not None
+            if way_out is None:
+                return InspectPlan(None, 0, len(Q), time.perf_counter() - t0, n_calls=0)
+            q_from = way_out[-1]
+        p = plan_to_best(q_from, Q, gain, 1000.0 * config.min_fraction, config.n_goals, wm.checker, config.planner,
                          rng, t0, n_groups=config.plan_groups)
+        if p.path is not None and way_out is not None:
+            p = replace(p, path=np.vstack([way_out[:1], np.asarray(p.path)]))
         if p.path is not None:
             self.last["chosen_up"] = bool(up[np.argmin(np.abs(Q - np.asarray(p.path)[-1]).sum(axis=1))])
         self.last["n_plan_calls"] = p.n_calls

@@ -52,7 +52,11 @@ class InspectConfig:
     space behind an opening's top rail that the forearm needs is seen only from there); the
     best n_occlusion of them are re-scored with occlusion besides the best n_occlusion of the
     other views. plan_groups: when no path reaches the n_goals best views, the next n_goals
-    are tried, up to this many planner calls per step (1: the best group only)."""
+    are tried, up to this many planner calls per step (1: the best group only). escape: when
+    the current configuration is invalid for the method's checker (the grasp-only harness's
+    oracle view stands within the checker's margin of the rail it looks past, and no plan can
+    start there), the grasp mode first moves out along `exploration.escape.escape_path`, the
+    short way out every method takes, and plans from there (False: no plan, as before)."""
 
     n_views: int = 6
     mode: str = "grasp"
@@ -71,6 +75,7 @@ class InspectConfig:
     up_elevation: float = 0.6
     up_cone: float = 0.5
     plan_groups: int = 3
+    escape: bool = True
     n_samples: int = 300
     sigma: float = 0.12
     wrist_sigma: float = 0.5
