@@ -63,7 +63,7 @@ def test_harness_inspection_reports_the_simulated_time_of_its_moves():
     a = np.repeat(home[None], 3, axis=0)
     a[1, 0], a[2, 0] = home[0] + 0.3, home[0] + 0.6
     b = np.repeat(a[-1:], 2, axis=0)
-    b[1, 3] = home[3] - 0.4
+    b[1, 3] = home[3] + 0.4
     insp = HarnessInspection(a[-1], 2, 3, 2, (), (a, b))
     assert insp.motion_s == pytest.approx(segment_durations(a).sum() + segment_durations(b).sum())
     assert insp.motion_s > segment_durations(a).sum() > 0.0
