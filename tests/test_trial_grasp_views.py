@@ -175,7 +175,8 @@ def _inspector(rail_view, **over):
     from dataclasses import replace
     world, task, wm, q_view, det, hyps, needed = rail_view
     gc = GraspTrialConfig()
-    insp = GraspInspector(wm, world.camera.K, task, gc.target, gc.select, replace(gc.inspect, **over),
+    # the INSPECT defaults (the grasp-only harness's); the trial keeps the older view choice
+    insp = GraspInspector(wm, world.camera.K, task, gc.target, gc.select, replace(InspectConfig(), **over),
                           np.random.default_rng(1))
     insp.needs = lambda q, d, occ=None, hyps=None: (rail_view[5], [rail_view[6]])  # the hypothesis above
     return insp
