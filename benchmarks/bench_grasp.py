@@ -16,6 +16,7 @@ The numbers in docs/grasping.md and docs/grasping_log.md name their own --start/
 from __future__ import annotations
 
 import argparse
+import ast
 import json
 import os
 import sys
@@ -132,8 +133,11 @@ def main() -> int:
     ap.add_argument("--capture", default=None,
                     help="also pickle each constrained selection's inputs to DIR/L{level}_{index}.pkl "
                          "(the format of capture_select_inputs.py, for replay_select.py)")
+    ap.add_argument("--inspect-set", nargs="*", default=[],
+                    help="InspectConfig field=value overrides (python literals), e.g. n_up=0 escape=False")
     args = ap.parse_args()
     inspect = InspectConfig() if args.inspect_views is None else InspectConfig(n_views=args.inspect_views)
+    inspect = replace(inspect, **{k: ast.literal_eval(v) for k, v in (s.split("=", 1) for s in args.inspect_set)})
     if args.plan_budget is not None:
         inspect = replace(inspect, planner=replace(inspect.planner, time_budget=args.plan_budget, max_checks=None))
     variants = [v == "on" for v in args.variants.split(",")]

@@ -53,3 +53,18 @@ def test_the_fine_map_holds_kept_and_later_frames_as_a_fresh_integration():
     assert HarnessModel(occ, spheres, RobotConfig(), _task()).fine_map(pts) is None  # no frames: no fine map
     with pytest.raises(CompassInputError, match="fine_margin"):
         HarnessModel(occ, spheres, RobotConfig(), _task(), frames=[], fine_margin=0.0)
+
+
+def test_harness_inspection_reports_the_simulated_time_of_its_moves():
+    import numpy as np
+    from compass_manip.motion.timing import segment_durations
+    from compass_manip.sim.grasp_inspect import HarnessInspection
+    home = np.asarray(RobotConfig().q_home)
+    a = np.repeat(home[None], 3, axis=0)
+    a[1, 0], a[2, 0] = home[0] + 0.3, home[0] + 0.6
+    b = np.repeat(a[-1:], 2, axis=0)
+    b[1, 3] = home[3] + 0.4
+    insp = HarnessInspection(a[-1], 2, 3, 2, (), (a, b))
+    assert insp.motion_s == pytest.approx(segment_durations(a).sum() + segment_durations(b).sum())
+    assert insp.motion_s > segment_durations(a).sum() > 0.0
+    assert HarnessInspection(a[0], 0, 1, 0, (), ()).motion_s == 0.0

@@ -120,3 +120,102 @@ def test_grasp_map_integrates_frames_at_1cm_and_marks_the_way_but_not_seen_obsta
             (occ.state[v[1, 0], v[1, 1], v[1, 2]] != VoxelState.OCCUPIED)
     finally:
         world.close()
+
+
+def test_up_candidates_stand_below_and_in_front_of_the_voxels_looking_up():
+    from compass_manip.trial.grasp_views import up_candidates
+    rng = np.random.default_rng(0)
+    cfg = InspectConfig(n_up=40, up_elevation=0.6, up_cone=0.3, view_distance=(0.25, 0.4))
+    look, shoulder = np.array([0.55, 0.05, 0.62]), np.array([0.0, 0.0, 0.333])
+    T = up_candidates(look[None], np.array([0.9, 0.1, -0.3]), shoulder, cfg, rng)
+    assert T.shape == (40, 4, 4)
+    z = T[:, :3, 2]
+    d = np.linalg.norm(T[:, :3, 3] - look, axis=1)
+    assert np.all((d >= 0.25 - 1e-9) & (d <= 0.4 + 1e-9))
+    assert np.allclose(np.einsum("ij,ij->i", (look - T[:, :3, 3]) / d[:, None], z), 1.0)  # looking at the point
+    assert np.all(z[:, 2] > 0.0) and np.all(T[:, 2, 3] < look[2])  # from below, looking up
+    assert np.all(T[:, 0, 3] < look[0])  # on the robot's side of the voxels
+    h = np.array([0.9, 0.1, 0.0]) / np.linalg.norm([0.9, 0.1])
+    up = np.cos(0.6) * h + np.array([0.0, 0.0, np.sin(0.6)])
+    assert np.all(z[0::2] @ up >= np.cos(0.3) - 1e-9)  # even ones: the approach raised by up_elevation
+    back = (look - shoulder) / np.linalg.norm(look - shoulder)
+    assert np.all(z[1::2] @ back >= np.cos(0.3) - 1e-9)  # odd ones: from the shoulder's side
+    assert up_candidates(np.zeros((0, 3)), h, shoulder, cfg, rng).shape == (0, 4, 4)
+
+
+@pytest.fixture(scope="module")
+def rail_view():
+    """An open cabinet whose shelf at z = 0.62 m has a 5 cm face-frame rail below it, the
+    method's model observed on the way to a view of the target, and one grasp hypothesis
+    (approach +x) whose arm needs the unknown voxels behind the rail (x 0.47-0.56 m, z
+    0.57-0.60 m): the space the forearm of a severe level's neck grasp needs."""
+    from compass_manip.sim.scenes import CabinetSpec, Primitive, SceneSpec
+    from compass_manip.sim.world import World
+    cab = CabinetSpec((0.45, -0.3, 0.30), (0.80, 0.3, 0.95), shelves=(0.62,), rail=0.05)
+    target = Primitive("target", "box", (0.02, 0.02, 0.06), (0.60, 0.0, 0.36), 0.2, (0.9, 0.05, 0.05, 1.0), True,
+                       0.08)
+    world = World(SceneSpec(level=1, index=0, seed=(0,), cabinet=cab, target=target))
+    task, wm, q_view, view = observed_view(world)
+    det = SimpleNamespace(points_world=oracle_detection(world, view), T_world_cam=view.T_world_cam)
+    occ = wm.occ
+    a = occ.world_to_voxel(np.array([[0.47, -0.08, 0.57]]))[0]
+    b = occ.world_to_voxel(np.array([[0.56, 0.08, 0.60]]))[0] + 1
+    box = np.zeros(occ.shape, bool)
+    box[a[0]:b[0], a[1]:b[1], a[2]:b[2]] = True
+    needed = np.argwhere(box & (occ.state == VoxelState.UNKNOWN))
+    T = np.eye(4)
+    T[:3, :3] = np.array([[0.0, 0.0, -1.0], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0]])  # approach (z) along +x
+    T[:3, 3] = (0.6, 0.0, 0.38)
+    hyp = SimpleNamespace(score=1.0, T_world_tcp=T)
+    yield world, task, wm, q_view, det, [hyp], needed
+    world.close()
+
+
+def _inspector(rail_view, **over):
+    from dataclasses import replace
+    world, task, wm, q_view, det, hyps, needed = rail_view
+    gc = GraspTrialConfig()
+    # the INSPECT defaults (the grasp-only harness's); the trial keeps the older view choice
+    insp = GraspInspector(wm, world.camera.K, task, gc.target, gc.select, replace(InspectConfig(), **over),
+                          np.random.default_rng(1))
+    insp.needs = lambda q, d, occ=None, hyps=None: (rail_view[5], [rail_view[6]])  # the hypothesis above
+    return insp
+
+
+def test_arm_voxels_behind_a_rail_get_a_view_from_below(rail_view):
+    world, task, wm, q_view, det, hyps, needed = rail_view
+    assert len(needed) > 50  # unseen from the views down at the target
+    insp = _inspector(rail_view)
+    p = insp(q_view, det)
+    assert p.path is not None and insp.last["chosen_up"]  # a look up wins
+    T = wm.kin.T_world_cam_batch(np.asarray(p.path)[-1:])[0]
+    centre = wm.occ.voxel_to_world(needed).mean(axis=0)
+    assert T[2, 3] < centre[2] - 0.03 and T[2, 2] > 0.0  # below the voxels, looking up
+    assert np.all(wm.checker.are_valid(densify(np.asarray(p.path), 0.01)))
+    flat = _inspector(rail_view, n_up=0)  # only the views along the approach and around: they see less
+    flat(q_view, det)
+    assert insp.last["best_gain"] > flat.last["best_gain"] + 100
+
+
+def test_inspect_moves_out_of_a_start_the_checker_refuses(rail_view):
+    world, task, wm, q_view, det, hyps, needed = rail_view
+    occ, state = wm.occ, wm.occ.state.copy()
+    try:  # a voxel seen occupied 3 mm from the hand (within the checker's 5 mm margin)
+        c = wm.spheres.sphere_centers(q_view[None])[0]
+        k = int(np.argmax(c[:, 2]))
+        p0 = c[k] + np.array([0.0, 0.0, wm.spheres.radii[k] + 0.003 + 0.5 * np.sqrt(3) * occ.resolution])
+        v = occ.world_to_voxel(p0[None])[0]
+        occ.state[v[0], v[1], v[2]] = VoxelState.OCCUPIED
+        wm._checker = None  # the map changed outside observe(): rebuild the checker
+        chk = wm.checker
+        assert not chk.is_valid(q_view)
+        stuck = _inspector(rail_view, escape=False)
+        assert stuck(q_view, det).path is None  # no plan starts there
+        insp = _inspector(rail_view)
+        p = insp(q_view, det)
+        assert p.path is not None and insp.last["escaped"] and np.allclose(p.path[0], q_view)
+        rest = densify(np.asarray(p.path)[1:], 0.01)
+        assert chk.is_valid(p.path[1]) and np.all(chk.are_valid(rest))  # valid from the way out on
+    finally:
+        occ.state[...] = state
+        wm._checker = None

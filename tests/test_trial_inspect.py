@@ -14,7 +14,7 @@ from compass_manip.sim.grasp_only import oracle_detection
 from compass_manip.trial.config import TrialConfig
 from compass_manip.trial.grasp_stage import GraspStageResult
 from compass_manip.trial.inspect import (InspectConfig, InspectPlan, corridor_unknown, frustum_counts,
-                                         plan_inspect_view, seen_counts)
+                                         plan_inspect_view, plan_to_best, seen_counts)
 from compass_manip.trial.machine import TrialMachine, TrialState
 
 K = np.array([[300.0, 0.0, 160.0], [0.0, 300.0, 120.0], [0.0, 0.0, 1.0]])
@@ -112,3 +112,39 @@ def test_machine_charges_but_does_not_count_an_inspect_step_that_plans_nothing()
     out = TrialMachine(world, method, buffer, metrics, TrialConfig(), grasp=grasp, inspect=inspect, n_inspect=3).run()
     assert len(calls) == 1 and metrics.plans_attempted == 0 and metrics.plans_succeeded == 0
     assert out.t_end == pytest.approx(0.1 + 2.0) and out.n_inspected == 0
+
+
+def test_plan_to_best_tries_the_next_group_of_views_when_the_best_has_no_path(monkeypatch):
+    import compass_manip.trial.inspect as inspect_mod
+    from types import SimpleNamespace
+    Q = np.arange(9, dtype=np.float64)[:, None] * np.ones((1, 7)) * 0.01
+    score = np.array([90.0, 80, 70, 60, 50, 40, 30, 20, 10])
+    calls = []
+
+    def fake_plan(q, goals, checker, config, rng):  # only the views scored 50 and 40 can be reached
+        calls.append(np.round(goals[:, 0] * 100).astype(int).tolist())
+        hit = [k for k, g in enumerate(goals) if round(g[0] * 100) in (4, 5)]
+        return SimpleNamespace(success=bool(hit), path=np.stack([q, goals[hit[0]]]) if hit else None,
+                               goal_index=hit[0] if hit else -1)
+
+    monkeypatch.setattr(inspect_mod, "plan", fake_plan)
+    q, rng = np.zeros(7), np.random.default_rng(0)
+    one = plan_to_best(q, Q, score, 15.0, 2, None, None, rng, 0.0)  # the best group only: no path
+    assert one.planned and one.path is None and one.n_calls == 1 and calls == [[0, 1]]
+    calls.clear()
+    p = plan_to_best(q, Q, score, 15.0, 2, None, None, rng, 0.0, n_groups=3)
+    assert calls == [[0, 1], [2, 3], [4, 5]] and p.n_calls == 3  # the third group holds the reachable views
+    assert np.allclose(p.path[-1], Q[4]) and p.gain == 50
+    calls.clear()
+    p = plan_to_best(q, Q, score, 15.0, 2, None, None, rng, 0.0, n_groups=2)  # bounded: 2 calls, then no path
+    assert calls == [[0, 1], [2, 3]] and p.path is None and p.n_calls == 2
+    calls.clear()
+    p = plan_to_best(q, Q, score, 75.0, 2, None, None, rng, 0.0, n_groups=3)  # only views scoring >= min_score
+    assert calls == [[0, 1]] and p.path is None
+
+
+def test_inspect_config_rejects_bad_plan_groups():
+    with pytest.raises(CompassInputError, match="plan_groups"):
+        InspectConfig(plan_groups=0)
+    with pytest.raises(CompassInputError, match="up_cone"):
+        InspectConfig(up_cone=3.0)

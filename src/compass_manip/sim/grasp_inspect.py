@@ -22,7 +22,7 @@ from ..mapping.distance import DistanceField, mark_robot
 from ..mapping.observe import integrate_observation
 from ..mapping.occupancy import OccupancyMap, VoxelState
 from ..motion.primitives import DistanceGrid
-from ..motion.timing import densify
+from ..motion.timing import densify, segment_durations
 from ..motion.validity import ValidityChecker
 from ..robot.kinematics import PandaKinematics
 from ..robot.model import GRIPPER_MAX_WIDTH
@@ -101,6 +101,12 @@ class HarnessInspection:
     paths: tuple
     frames: tuple = ()
 
+    @property
+    def motion_s(self) -> float:
+        """Simulated time [s] of the moves to the views (rest to rest through every waypoint,
+        `motion.timing.segment_durations`)."""
+        return float(sum(segment_durations(p).sum() for p in self.paths))
+
 
 def inspect_views(world, model: HarnessModel, inspector, q_start: np.ndarray, detection, n_views: int,
                   frame_step: float = 0.1, check_step: float = 0.01, on_move=None) -> HarnessInspection:
@@ -115,7 +121,7 @@ def inspect_views(world, model: HarnessModel, inspector, q_start: np.ndarray, de
         p = inspector(q, detection)
         if not p.planned:
             break
-        n_plans += 1
+        n_plans += getattr(p, "n_calls", 1)
         if p.path is None:
             break
         n_planned += 1

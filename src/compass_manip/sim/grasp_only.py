@@ -89,8 +89,9 @@ class GraspOnlyResult:
     """q_view the oracle start (None: no view found); visibility of the target from it;
     n_target_points detected; selection and outcome (None when not reached); map_time_s (way_mask_s
     of it marking the robot's way, as it moved), fine_map_s the fine local map's integration,
-    success (lifted, held, no collision); n_inspected INSPECT views reached and
-    inspect_contacts (ground-truth contacts on their way, which end the trial)."""
+    success (lifted, held, no collision); n_inspected INSPECT views reached,
+    inspect_contacts (ground-truth contacts on their way, which end the trial), inspect_plans
+    INSPECT's planner calls and inspect_motion_s [s] the simulated time of its moves."""
 
     q_view: np.ndarray | None
     visibility: float
@@ -103,6 +104,8 @@ class GraspOnlyResult:
     fine_map_s: float = 0.0
     n_inspected: int = 0
     inspect_contacts: tuple = ()
+    inspect_plans: int = 0
+    inspect_motion_s: float = 0.0
 
     @property
     def success(self) -> bool:
@@ -127,7 +130,8 @@ class GraspOnlyResult:
             "plan_time_s": None if s is None else round(s.plan_time_s, 4),
             "collisions": [f"inspect:{c}" for c in self.inspect_contacts]
             + ([] if o is None else [f"{c.phase}:{c.robot_geom}->{c.other_geom}" for c in o.collisions]),
-            "n_inspected": self.n_inspected,
+            "n_inspected": self.n_inspected, "inspect_plans": self.inspect_plans,
+            "inspect_motion_s": round(self.inspect_motion_s, 2),
             "lift_height": None if o is None else round(o.lift_height, 4),
             "hold_height": None if o is None else round(o.hold_height, 4),
             "exec_phases": None if o is None else [[p.phase, round(p.moved, 4), p.pads] for p in o.phases],
@@ -328,7 +332,7 @@ def run_grasp_only(scene: SceneSpec, config: GraspOnlyConfig | None = None, seed
         if len(points) < 10:
             return GraspOnlyResult(q_view, vis, len(points), None, None, None, map_time)
         task = scene.task()
-        q_sel, n_insp, proposer = q_view, 0, None
+        q_sel, n_insp, proposer, insp_plans, insp_motion = q_view, 0, None, 0, 0.0
         if config.inspect.n_views > 0:  # the trial's grasp-aware INSPECT, on this map
             model = HarnessModel(occ, spheres, world.robot, task, frames=frames if config.fine_map else None,
                                  max_range=world.camera.depth_max, fine_margin=config.fine_margin,
@@ -343,8 +347,9 @@ def run_grasp_only(scene: SceneSpec, config: GraspOnlyConfig | None = None, seed
             insp = inspect_views(world, model, inspector, q_view, det, config.inspect.n_views, on_move=went)
             if insp.contacts:
                 return GraspOnlyResult(q_view, vis, len(points), None, None, None, map_time, way.time_s, 0.0,
-                                       insp.n_views, tuple(f"{c.robot_geom}->{c.other_geom}" for c in insp.contacts))
-            q_sel, n_insp = insp.q_end, insp.n_views
+                                       insp.n_views, tuple(f"{c.robot_geom}->{c.other_geom}" for c in insp.contacts),
+                                       insp.n_plans, insp.motion_s)
+            q_sel, n_insp, insp_plans, insp_motion = insp.q_end, insp.n_views, insp.n_plans, insp.motion_s
             if len(inspector.pinned):  # the hypotheses INSPECT looked for are checked first
                 proposer = PinnedProposer(AntipodalProposer(config.select.candidates), inspector.pinned)
             frames += list(insp.frames)
@@ -364,7 +369,8 @@ def run_grasp_only(scene: SceneSpec, config: GraspOnlyConfig | None = None, seed
                            fine_map=fine)
         world.set_q(q_sel, GRIPPER_MAX_WIDTH)
         outcome = execute_grasp(world, sel, q_sel, config.execute)
-        return GraspOnlyResult(q_view, vis, len(points), target, sel, outcome, map_time, way.time_s, fine_time, n_insp)
+        return GraspOnlyResult(q_view, vis, len(points), target, sel, outcome, map_time, way.time_s, fine_time, n_insp,
+                               (), insp_plans, insp_motion)
     finally:
         if own:
             world.close()

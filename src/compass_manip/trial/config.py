@@ -74,7 +74,12 @@ class GraspTrialConfig:
     assumption: a wrist camera never sees the space its own elbow moves through);
     inspect: the INSPECT views between FOUND and GRASP (`trial.inspect.InspectConfig`;
     n_views=0: off): views chosen for the unknown space the grasp hypotheses need
-    (`trial.grasp_views`); grasp_map: GRASP and INSPECT use a 1 cm map of every depth frame
+    (`trial.grasp_views`); the trial keeps the view choice before branch insp (no looks up,
+    no escape, one planner call a step: `n_up=0, escape=False, plan_groups=1`): with the
+    grasp-only harness's defaults, seed 101 level 3 scene 0 chose other views and then a
+    grasp whose transfer ran link 4 into an unseen base wall (`base_wall0`) through space the
+    near-body assumption takes as free, where the old views grasp it without contact (the
+    looks up alone do it; docs/grasping_log.md, "INSPECT looks up"); grasp_map: GRASP and INSPECT use a 1 cm map of every depth frame
     (`trial.grasp_map`) instead of the method's (2 cm for the exploration methods); with it,
     fine_map: the grasp map's frames integrated again at 5 mm within fine_margin [m] of the
     target's points for the hand's checks (as in the grasp-only harness); scan: the
@@ -116,7 +121,8 @@ class GraspTrialConfig:
     moved_margin: float = 0.02
     max_moved_configs: int = 400
     near_body_free: bool = True
-    inspect: InspectConfig = field(default_factory=lambda: InspectConfig(n_views=20))
+    inspect: InspectConfig = field(default_factory=lambda: InspectConfig(n_views=20, n_up=0, escape=False,
+                                                                         plan_groups=1))
     grasp_map: bool = True
     fine_map: bool = True
     fine_margin: float = 0.2

@@ -21,10 +21,12 @@ along the way, and calls again: the hypotheses are recomputed on the new map.
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 
 import numpy as np
 
 from ..errors import CompassInputError
+from ..exploration.escape import EscapeConfig, escape_path
 from ..exploration.viewpoints import sample_direction_in_cone, view_pose
 from ..grasp.candidates import AntipodalProposer, GraspCandidates, PinnedProposer
 from ..grasp.hypotheses import grasp_hypotheses, needed_voxels, strict_unsafe_mask
@@ -33,6 +35,10 @@ from ..grasp.target import build_target_model
 from ..mapping.occupancy import OccupancyMap
 from ..robot.ik import PandaIK
 from ..robot.model import Q_MAX, Q_MIN
+
+#: Height [m] of the Panda's shoulder (joint 2) above its base: where `up_candidates`' second
+#: family looks from.
+SHOULDER_HEIGHT = 0.333
 from .inspect import InspectConfig, InspectPlan, frustum_mask, plan_to_best, seen_counts
 
 
@@ -65,14 +71,43 @@ def view_candidates(hyp_axes: list[tuple[np.ndarray, np.ndarray]], centre: np.nd
     return np.array(out).reshape(-1, 4, 4)
 
 
+def up_candidates(looks: np.ndarray, approach: np.ndarray, shoulder: np.ndarray, config: InspectConfig,
+                  rng: np.random.Generator) -> np.ndarray:
+    """(n_up,4,4) camera poses looking up at the look points (L,3) [m] (taken in turn), backed
+    off view_distance [m]: even ones with optical axes within up_cone of the horizontal part of
+    `approach` (3,) raised by up_elevation, odd ones within up_cone of the direction from
+    `shoulder` (3,) [m] (the robot's) to the point, so the camera stands below and in front of
+    the voxels, where it sees past a rail that hides them from the views along the approach;
+    random rolls."""
+    looks = np.asarray(looks, dtype=np.float64).reshape(-1, 3)
+    if len(looks) == 0 or config.n_up == 0:
+        return np.zeros((0, 4, 4))
+    h = np.asarray(approach, dtype=np.float64) * np.array([1.0, 1.0, 0.0])
+    h = h / np.linalg.norm(h) if np.linalg.norm(h) > 1e-6 else np.array([1.0, 0.0, 0.0])
+    up = np.cos(config.up_elevation) * h + np.array([0.0, 0.0, np.sin(config.up_elevation)])
+    lo, hi = config.view_distance
+    out = []
+    for i in range(config.n_up):
+        look = looks[(i // 2) % len(looks)]
+        back = look - np.asarray(shoulder, dtype=np.float64)
+        axis = up if i % 2 == 0 or np.linalg.norm(back) < 1e-6 else back
+        d = sample_direction_in_cone(axis, config.up_cone, rng)
+        out.append(view_pose(look, d, rng.uniform(lo, hi), rng.uniform(-np.pi, np.pi)))
+    return np.array(out)
+
+
 def weighted_gain(occ: OccupancyMap, T_world_cam: np.ndarray, K: np.ndarray, pts: np.ndarray, w: np.ndarray,
-                  config: InspectConfig, rng: np.random.Generator) -> np.ndarray:
+                  config: InspectConfig, rng: np.random.Generator, groups: np.ndarray | None = None) -> np.ndarray:
     """(M,) weight of the points (N,3) [m] each camera sees: frustum-weighted for all, the
-    best n_occlusion re-scored with occlusion on n_rays points drawn in proportion to w."""
+    best n_occlusion (of each group: `groups` (M,) labels, None: one group) re-scored with
+    occlusion on n_rays points drawn in proportion to w (the rest score 0)."""
     gain = frustum_mask(T_world_cam, K, pts, config.max_range).astype(np.float64) @ w
     if not config.occlusion or len(pts) == 0:
         return gain
-    top = np.argsort(-gain, kind="stable")[: config.n_occlusion]
+    groups = np.zeros(len(gain), dtype=np.int64) if groups is None else np.asarray(groups)
+    order = np.argsort(-gain, kind="stable")
+    top = np.sort(np.concatenate([order[groups[order] == g][: config.n_occlusion] for g in np.unique(groups)]))
+    top = top[np.argsort(-gain[top], kind="stable")]
     sub = pts[rng.choice(len(pts), config.n_rays, replace=True, p=w / w.sum())]
     seen = seen_counts(occ, T_world_cam[top], K, sub, config.max_range)
     out = np.zeros_like(gain)
@@ -168,18 +203,40 @@ class GraspInspector:
                 look = occ.voxel_to_world(needed[k]).mean(axis=0)
                 axes.append((hyps[k].T_world_tcp[:3, 2], look))
         around = np.mean([h.T_world_tcp[:3, 2] for h in hyps], axis=0)
-        T = view_candidates(axes, (w[:, None] * vox).sum(0) / w.sum(), around, config, rng)
+        centre = (w[:, None] * vox).sum(0) / w.sum()
+        T = view_candidates(axes, centre, around, config, rng)
+        shoulder = np.asarray(self.task.robot_base_pos, dtype=np.float64) + np.array([0.0, 0.0, SHOULDER_HEIGHT])
+        T_up = up_candidates(np.array([centre] + [look for _, look in axes]), around, shoulder, config, rng)
         Q = [s for Tc in T for s in self.ik.solve(Tc, "cam", q, config.n_q7, retry=False).solutions[:2]]
+        Q_up = [s for Tc in T_up for s in self.ik.solve(Tc, "cam", q, config.n_q7, retry=False).solutions[:2]]
         scale = np.r_[np.full(4, config.sigma), np.full(3, config.wrist_sigma)]
         near = np.clip(q + rng.normal(0.0, 1.0, (config.n_samples, 7)) * scale, Q_MIN + 1e-3, Q_MAX - 1e-3)
         n_ik = len(Q)
         Q = np.vstack([np.array(Q).reshape(-1, 7), near] + ([] if self.more_candidates is None
-                                                             else [np.asarray(self.more_candidates(q)).reshape(-1, 7)]))
-        Q = Q[np.asarray(wm.checker.are_valid(Q), dtype=bool)]
+                                                             else [np.asarray(self.more_candidates(q)).reshape(-1, 7)])
+                      + [np.array(Q_up).reshape(-1, 7)])
+        up = np.arange(len(Q)) >= len(Q) - len(Q_up)  # the looks from below: re-scored as a group of their own
+        ok = np.asarray(wm.checker.are_valid(Q), dtype=bool)
+        Q, up = Q[ok], up[ok]
         if len(Q) == 0:
             return InspectPlan(None, 0, 0, time.perf_counter() - t0)
-        gain = weighted_gain(occ, wm.kin.T_world_cam_batch(Q), self.K, vox, w, config, rng)
+        gain = weighted_gain(occ, wm.kin.T_world_cam_batch(Q), self.K, vox, w, config, rng, groups=up)
         gain = 1000.0 * gain / w.sum()  # per mille of the hypotheses' weight seen
-        self.last.update(n_valid=len(Q), n_ik_views=n_ik, best_gain=round(float(gain.max()), 1))
-        return plan_to_best(q, Q, gain, 1000.0 * config.min_fraction, config.n_goals, wm.checker, config.planner,
-                            rng, t0)
+        self.last.update(n_valid=len(Q), n_ik_views=n_ik, n_up_valid=int(np.count_nonzero(up)),
+                         best_gain=round(float(gain.max()), 1),
+                         best_up_gain=round(float(gain[up].max()), 1) if up.any() else 0.0)
+        q_from, way_out = q, None
+        if config.escape and not wm.checker.is_valid(q):  # a frame saw something within the margin of the arm
+            way_out = escape_path(wm.checker, q, EscapeConfig(), rng)
+            self.last["escaped"] = way_out is not None
+            if way_out is None:
+                return InspectPlan(None, 0, len(Q), time.perf_counter() - t0, n_calls=0)
+            q_from = way_out[-1]
+        p = plan_to_best(q_from, Q, gain, 1000.0 * config.min_fraction, config.n_goals, wm.checker, config.planner,
+                         rng, t0, n_groups=config.plan_groups)
+        if p.path is not None and way_out is not None:
+            p = replace(p, path=np.vstack([way_out[:1], np.asarray(p.path)]))
+        if p.path is not None:
+            self.last["chosen_up"] = bool(up[np.argmin(np.abs(Q - np.asarray(p.path)[-1]).sum(axis=1))])
+        self.last["n_plan_calls"] = p.n_calls
+        return p

@@ -45,7 +45,18 @@ class InspectConfig:
     a hypothesis needs at most this many unknown voxels; min_fraction of the hypotheses'
     weight a grasp-mode view must see; max_pinned: the grasp mode keeps the candidates of up
     to this many hypotheses found so far and checks them again at every step and in the GRASP
-    stage's selection (0: each step draws afresh, as before)."""
+    stage's selection (0: each step draws afresh, as before). n_up camera poses look up at the
+    needed voxels (`trial.grasp_views.up_candidates`): half from below, their optical axes
+    within up_cone [rad] of the mean approach's horizontal direction raised by up_elevation
+    [rad], half within up_cone of the direction from the robot's shoulder to the voxels (the
+    space behind an opening's top rail that the forearm needs is seen only from there); the
+    best n_occlusion of them are re-scored with occlusion besides the best n_occlusion of the
+    other views. plan_groups: when no path reaches the n_goals best views, the next n_goals
+    are tried, up to this many planner calls per step (1: the best group only). escape: when
+    the current configuration is invalid for the method's checker (the grasp-only harness's
+    oracle view stands within the checker's margin of the rail it looks past, and no plan can
+    start there), the grasp mode first moves out along `exploration.escape.escape_path`, the
+    short way out every method takes, and plans from there (False: no plan, as before)."""
 
     n_views: int = 6
     mode: str = "grasp"
@@ -60,6 +71,11 @@ class InspectConfig:
     done_unknown: int = 0
     min_fraction: float = 0.02
     max_pinned: int = 48
+    n_up: int = 32
+    up_elevation: float = 0.6
+    up_cone: float = 0.5
+    plan_groups: int = 3
+    escape: bool = True
     n_samples: int = 300
     sigma: float = 0.12
     wrist_sigma: float = 0.5
@@ -84,6 +100,10 @@ class InspectConfig:
                                     f"{self.min_gain} not allowed; use 1..10000, 1..100 and >= 0")
         if self.mode not in ("grasp", "corridor"):
             raise CompassInputError(f"mode {self.mode!r} is not allowed; use 'grasp' or 'corridor'")
+        if isinstance(self.plan_groups, bool) or not isinstance(self.plan_groups, int) \
+                or not 1 <= self.plan_groups <= 20 or not 0 <= self.n_up <= 1000:
+            raise CompassInputError(f"plan_groups {self.plan_groups!r} / n_up {self.n_up} not allowed; "
+                                    "use an integer 1..20 and 0..1000")
         lo, hi = self.view_distance
         if not 0.1 <= lo <= hi <= 1.0 or not 0 <= self.n_axes <= 100 or not 0 <= self.n_per_axis <= 100 \
                 or not 0 <= self.n_around <= 1000 or not 1 <= self.n_q7 <= 100 or self.done_unknown < 0:
@@ -92,7 +112,7 @@ class InspectConfig:
                                     f"{self.done_unknown} not allowed; use 0.1 <= lo <= hi <= 1 m, 0..100, 0..100, "
                                     "0..1000, 1..100, >= 0")
         for name in ("sigma", "wrist_sigma", "corridor", "side", "above", "max_range", "axis_cone", "around_cone",
-                     "min_fraction"):
+                     "min_fraction", "up_elevation", "up_cone"):
             if not 0.0 <= getattr(self, name) <= 2.0:
                 raise CompassInputError(f"{name} {getattr(self, name)} is not allowed; use 0..2")
 
@@ -101,13 +121,15 @@ class InspectConfig:
 class InspectPlan:
     """path (m,7) [rad] to the chosen view or None; gain: unknown corridor voxels in its
     frustum; n_valid sampled configurations valid for the checker; plan_time_s [s];
-    planned: the planner was called (False: INSPECT stopped with nothing left to plan for)."""
+    planned: the planner was called (False: INSPECT stopped with nothing left to plan for);
+    n_calls: planner calls made (`plan_to_best` tries further groups of views)."""
 
     path: np.ndarray | None
     gain: int
     n_valid: int
     plan_time_s: float
     planned: bool = True
+    n_calls: int = 1
 
 
 def corridor_unknown(occ: OccupancyMap, points: np.ndarray, outward: np.ndarray,
@@ -197,17 +219,22 @@ def plan_inspect_view(checker, kin, occ: OccupancyMap, K: np.ndarray, points: np
 
 
 def plan_to_best(q: np.ndarray, Q: np.ndarray, score: np.ndarray, min_score: float, n_goals: int, checker,
-                 planner: PlannerConfig, rng: np.random.Generator, t0: float) -> InspectPlan:
+                 planner: PlannerConfig, rng: np.random.Generator, t0: float, n_groups: int = 1) -> InspectPlan:
     """Plan from q (7,) [rad] to any of the n_goals best-scored views among Q (n,7) [rad]
-    that score at least min_score (an `InspectPlan` with planned=False when none does, path
-    None when no path is found; gain the reached view's score rounded, plan_time_s since
+    that score at least min_score; when no path reaches them, to any of the next n_goals, up to
+    n_groups planner calls (an `InspectPlan` with planned=False when no view scores enough,
+    path None when no path is found; gain the reached view's score rounded, plan_time_s since
     t0, a `time.perf_counter()` value)."""
     order = np.argsort(-score, kind="stable")
-    order = order[score[order] >= min_score][:n_goals]
+    order = order[score[order] >= min_score][: n_goals * n_groups]
     if len(order) == 0:
         return InspectPlan(None, 0, len(Q), time.perf_counter() - t0, planned=False)
-    res = plan(q, Q[order], checker, planner, rng)
-    if not res.success:
-        return InspectPlan(None, 0, len(Q), time.perf_counter() - t0)
-    return InspectPlan(res.path, int(round(score[order[res.goal_index]])), len(Q), time.perf_counter() - t0)
-
+    n_calls = 0
+    for start in range(0, len(order), n_goals):
+        group = order[start: start + n_goals]
+        res = plan(q, Q[group], checker, planner, rng)
+        n_calls += 1
+        if res.success:
+            return InspectPlan(res.path, int(round(score[group[res.goal_index]])), len(Q),
+                               time.perf_counter() - t0, n_calls=n_calls)
+    return InspectPlan(None, 0, len(Q), time.perf_counter() - t0, n_calls=n_calls)
