@@ -152,17 +152,24 @@ def test_fine_map_integration_hand_computed():
 
 def test_near_body_unknown_is_the_swept_spheres_unknown_voxels_and_cached():
     """`near_body_unknown` (cached swept mask) equals its definition: the unknown voxels
-    whose centres lie inside the links 0-4 spheres swept near home (brute force on a 4 cm
+    whose centres lie inside the links 0-4 spheres swept near home (brute force on an 8 cm
     grid), for two maps of the same grid with different states."""
     from compass_manip.robot.model import RobotConfig
     from compass_manip.sim.grasp_only import near_body_spheres, near_body_swept, near_body_unknown
 
     spheres = panda_sphere_model()
     home = np.asarray(RobotConfig().q_home)
-    occ = OccupancyMap(MapConfig(box_min=(-0.6, -0.7, -0.1), box_max=(0.9, 0.7, 1.2), resolution=0.04))
+    occ = OccupancyMap(MapConfig(box_min=(-0.64, -0.72, -0.08), box_max=(0.96, 0.72, 1.2), resolution=0.08))
     c, r = near_body_spheres(spheres, home)
     assert len(r) == 675 * np.isin(spheres.body_index, range(5)).sum()  # links 0-4 at 9 x 5 x 3 x 5 postures
-    inside = ~brute_force_clear(occ.shape, occ.grid_min, occ.resolution, c, r)
+    cr = np.unique(np.c_[c, r], axis=0)  # link 0 repeats in every posture, link 1 in most
+    idx = np.stack(np.meshgrid(*[np.arange(n) for n in occ.shape], indexing="ij"), -1).reshape(-1, 3)
+    p = occ.grid_min + (idx + 0.5) * occ.resolution
+    inside = np.zeros(len(p), bool)
+    for k in range(0, len(cr), 200):  # every voxel centre against every sphere, 200 at a time
+        d = p[:, None, :] - cr[None, k:k + 200, :3]
+        inside |= np.any(np.einsum("nsk,nsk->ns", d, d) <= cr[None, k:k + 200, 3] ** 2, axis=1)
+    inside = inside.reshape(occ.shape)
     rng = np.random.default_rng(2)
     for _ in range(2):
         occ.state[...] = rng.choice([VoxelState.UNKNOWN, VoxelState.FREE, VoxelState.OCCUPIED], occ.shape)
