@@ -155,7 +155,8 @@ def test_near_body_unknown_is_the_swept_spheres_unknown_voxels_and_cached():
     whose centres lie inside the links 0-4 spheres swept near home (brute force on an 8 cm
     grid), for two maps of the same grid with different states."""
     from compass_manip.robot.model import RobotConfig
-    from compass_manip.sim.grasp_only import near_body_spheres, near_body_swept, near_body_unknown
+    from compass_manip.grasp.robot_space import near_body_spheres, near_body_swept
+    from compass_manip.sim.grasp_only import near_body_unknown
 
     spheres = panda_sphere_model()
     home = np.asarray(RobotConfig().q_home)

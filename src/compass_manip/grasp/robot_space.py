@@ -9,7 +9,8 @@ The mask is exactly the one-shot rasterisation of all the configurations' sphere
 (`mapping.distance.unsafe_mask` with those spheres; tested); configurations seen before
 are skipped (bit-identical duplicates only, e.g. the home posture every way starts from).
 The space around the base column (`base_volume`) is the robot's too; it does not depend on
-the configuration, so its mask is computed once per grid (`base_volume_mask`).
+the configuration, so its mask is computed once per grid (`base_volume_mask`); so is the
+volume links 0-4 sweep near home (`near_body_swept`, the near-body assumption's space).
 """
 from __future__ import annotations
 
@@ -18,7 +19,7 @@ import time
 import numpy as np
 
 from ..errors import CompassInputError
-from ..mapping.distance import _clear_spheres
+from ..mapping.distance import _clear_spheres, mark_in_spheres
 from ..mapping.occupancy import OccupancyMap
 from ..robot.model import Q_MAX, Q_MIN
 from ..robot.spheres import SphereModel
@@ -83,18 +84,53 @@ def base_volume(spheres: SphereModel, q_ref: np.ndarray, n_q1: int = 36,
     return C.reshape(-1, 3), np.tile(spheres.radii[keep] + 0.02, len(Q))
 
 
-_BASE_MASKS: dict = {}
+_GRID_CONSTANTS: dict = {}
+
+
+def _grid_constant(name: str, spheres: SphereModel, occ: OccupancyMap, extra: bytes, build) -> np.ndarray:
+    """A mask of occ's grid that depends only on the sphere model, the grid and `extra`:
+    `build()` once per such key, then the same array (at most a few kept)."""
+    key = (name, id(spheres), occ.shape, occ.resolution, occ.grid_min.tobytes(), extra)
+    if key not in _GRID_CONSTANTS:
+        if len(_GRID_CONSTANTS) > 16:
+            _GRID_CONSTANTS.clear()
+        _GRID_CONSTANTS[key] = (spheres, build())  # the model is kept so its id stays unique
+    return _GRID_CONSTANTS[key][1]
 
 
 def base_volume_mask(spheres: SphereModel, occ: OccupancyMap) -> np.ndarray:
     """`base_volume` as a voxel mask of occ's grid, computed once per sphere model and grid
     (a constant of the robot: it does not depend on the configuration)."""
-    key = (id(spheres), occ.shape, occ.resolution, occ.grid_min.tobytes())
-    if key not in _BASE_MASKS:
+    def build():
         c, r = base_volume(spheres, 0.5 * (Q_MIN + Q_MAX))
-        out = np.ones(occ.shape, dtype=bool)
-        clear_spheres_box(out, occ.grid_min, occ.resolution, c, r)
-        if len(_BASE_MASKS) > 8:
-            _BASE_MASKS.clear()
-        _BASE_MASKS[key] = (spheres, ~out)  # the model is kept so its id stays unique
-    return _BASE_MASKS[key][1]
+        return ~clear_spheres_box(np.ones(occ.shape, dtype=bool), occ.grid_min, occ.resolution, c, r)
+
+    return _grid_constant("base_volume", spheres, occ, b"", build)
+
+
+def near_body_spheres(spheres: SphereModel, q_home: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(centres (S, 3) [m], radii (S,) [m]) of links 0-4's spheres swept around q_home: joint 1
+    within +-1.2 rad, joints 2-4 over a grid (675 configurations)."""
+    names = ("panda_link0", "panda_link1", "panda_link2", "panda_link3", "panda_link4")
+    keep = np.isin(spheres.body_index, [spheres.link_names.index(k) for k in names])
+    grids = np.meshgrid(np.linspace(-1.2, 1.2, 9), np.linspace(-1.2, 1.0, 5), (-0.5, 0.0, 0.5),
+                        np.linspace(-3.0, -0.8, 5), indexing="ij")
+    Q = np.repeat(np.asarray(q_home, dtype=np.float64)[None], grids[0].size, axis=0)
+    for j in range(4):
+        Q[:, j] = grids[j].ravel()
+    return spheres.sphere_centers(Q)[:, keep].reshape(-1, 3), np.tile(spheres.radii[keep], len(Q))
+
+
+def near_body_swept(occ: OccupancyMap, spheres: SphereModel, q_home: np.ndarray) -> np.ndarray:
+    """(nx, ny, nz) bool, read-only: the voxels of occ's grid whose centres lie inside
+    `near_body_spheres`. A constant of the robot and the grid, computed once per sphere
+    model, grid and q_home (71,550 spheres)."""
+    q_home = np.asarray(q_home, dtype=np.float64)
+
+    def build():
+        inside = np.zeros(occ.shape, bool)
+        mark_in_spheres(inside, occ.grid_min, occ.resolution, *near_body_spheres(spheres, q_home))
+        inside.flags.writeable = False
+        return inside
+
+    return _grid_constant("near_body", spheres, occ, q_home.tobytes(), build)

@@ -22,12 +22,11 @@ import numpy as np
 from ..exploration.wrist_sweep import wrist_sweep
 from ..geometry import look_at, make_T, rot_z
 from ..grasp.field import local_fine_map
-from ..grasp.robot_space import RobotSpaceMask
+from ..grasp.robot_space import RobotSpaceMask, near_body_swept
 from ..grasp.candidates import AntipodalProposer, PinnedProposer
 from ..grasp.select import GraspSelectConfig, GraspSelection, select_grasp
 from ..grasp.target import TargetModel, backproject, build_target_model, TargetConfig
 from ..mapping.observe import integrate_observation
-from ..mapping.distance import mark_in_spheres
 from ..mapping.occupancy import MapConfig, OccupancyMap, VoxelState
 from ..robot.ik import ik_camera
 from ..robot.model import GRIPPER_MAX_WIDTH, Q_MAX, Q_MIN
@@ -216,43 +215,10 @@ def near_field_configs(world: World, rng: np.random.Generator, n: int) -> list[n
     return out
 
 
-_NEAR_BODY: dict = {}
-
-
-def near_body_spheres(spheres, q_home: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(centres (S, 3) [m], radii (S,) [m]) of links 0-4's spheres swept around q_home: joint 1
-    within +-1.2 rad, joints 2-4 over a grid (675 configurations)."""
-    names = ("panda_link0", "panda_link1", "panda_link2", "panda_link3", "panda_link4")
-    keep = np.isin(spheres.body_index, [spheres.link_names.index(k) for k in names])
-    grids = np.meshgrid(np.linspace(-1.2, 1.2, 9), np.linspace(-1.2, 1.0, 5), (-0.5, 0.0, 0.5),
-                        np.linspace(-3.0, -0.8, 5), indexing="ij")
-    Q = np.repeat(np.asarray(q_home, dtype=np.float64)[None], grids[0].size, axis=0)
-    for j in range(4):
-        Q[:, j] = grids[j].ravel()
-    return spheres.sphere_centers(Q)[:, keep].reshape(-1, 3), np.tile(spheres.radii[keep], len(Q))
-
-
-def near_body_swept(occ: OccupancyMap, spheres, q_home: np.ndarray) -> np.ndarray:
-    """(nx, ny, nz) bool, read-only: the voxels of occ's grid whose centres lie inside
-    `near_body_spheres`. A constant of the robot and the grid, computed once per sphere
-    model, grid and q_home (71,550 spheres)."""
-    q_home = np.asarray(q_home, dtype=np.float64)
-    key = (id(spheres), occ.shape, occ.resolution, occ.grid_min.tobytes(), q_home.tobytes())
-    if key not in _NEAR_BODY:
-        c, r = near_body_spheres(spheres, q_home)
-        inside = np.zeros(occ.shape, bool)
-        mark_in_spheres(inside, occ.grid_min, occ.resolution, c, r)
-        inside.flags.writeable = False
-        if len(_NEAR_BODY) > 8:
-            _NEAR_BODY.clear()
-        _NEAR_BODY[key] = (spheres, inside)  # the model is kept so its id stays unique
-    return _NEAR_BODY[key][1]
-
-
 def near_body_unknown(occ: OccupancyMap, spheres, q_home: np.ndarray) -> np.ndarray:
     """NEAR-BODY ASSUMPTION (stands in for the NFA scan, which the exploration branch owns):
     unknown voxels inside the volume swept by links 0-4 around the home posture
-    (`near_body_swept`) are taken as free. Voxels seen occupied there stay unsafe. A wrist
+    (`grasp.robot_space.near_body_swept`) are taken as free. Voxels seen occupied there stay unsafe. A wrist
     camera cannot see the space its own elbow moves through."""
     return near_body_swept(occ, spheres, q_home) & (occ.state == VoxelState.UNKNOWN)
 
