@@ -114,9 +114,9 @@ def main() -> int:
                 if not sub.any():
                     continue
                 m = np.zeros(occ.shape, bool)
-                from compass_manip.exploration.world_model import mark_spheres
+                from compass_manip.mapping.distance import mark_in_spheres
                 C = np.ascontiguousarray(spheres.sphere_centers(Qt)[:, sub].reshape(-1, 3))
-                mark_spheres(m, occ.grid_min, occ.resolution, C, np.tile(spheres.radii[sub] + 0.009, len(Qt)))
+                mark_in_spheres(m, occ.grid_min, occ.resolution, C, np.tile(spheres.radii[sub] + 0.009, len(Qt)))
                 k = int(np.count_nonzero(m[tuple(nb[gt].T)])) if gt.any() else 0
                 if k:
                     names.append([spheres.link_names[b], k])

@@ -194,7 +194,8 @@ def test_start_shell_claims_only_the_body_margin_inside_the_confined_space(setup
     """The shell around the start posture (start_free_margin) is safe outside the space's outer
     box; inside it (the box grown by its wall and one voxel) only start_body_margin is, so a
     face frame just in front of the fingers is never assumed free."""
-    from compass_manip.exploration.world_model import WorldModel, WorldModelConfig, mark_configs, space_box_mask
+    from compass_manip.exploration.world_model import WorldModel, WorldModelConfig, space_box_mask
+    from compass_manip.mapping.distance import mark_robot
 
     task, q0 = setup[0].task(), setup[2]
     cfg = WorldModelConfig(start_free_margin=0.10, start_body_margin=0.05)
@@ -202,7 +203,7 @@ def test_start_shell_claims_only_the_body_margin_inside_the_confined_space(setup
     box = space_box_mask(wm.occ, task, task.space.wall_thickness + wm.occ.resolution)
     for margin in (0.05, 0.10):
         m = np.zeros(wm.occ.shape, bool)
-        mark_configs(m, wm.occ, wm.spheres, q0[None], margin)
+        mark_robot(m, wm.occ, wm.spheres, q0[None], margin)
         if margin == 0.05:
             body = m
         else:
@@ -242,7 +243,8 @@ def test_the_grasp_maps_start_shell_is_the_world_models_rule(setup):
     the full shell outside the confined space's box, only the body margin inside it."""
     from types import SimpleNamespace
 
-    from compass_manip.exploration.world_model import mark_configs, space_box_mask, start_shell
+    from compass_manip.exploration.world_model import space_box_mask, start_shell
+    from compass_manip.mapping.distance import mark_robot
     from compass_manip.trial.grasp_map import GraspMap
 
     scene, _, q0, _ = setup
@@ -253,7 +255,7 @@ def test_the_grasp_maps_start_shell_is_the_world_models_rule(setup):
     loose.start(world, None)
     box = space_box_mask(gm.occ, task, task.space.wall_thickness + gm.occ.resolution)
     body = np.zeros(gm.occ.shape, bool)
-    mark_configs(body, gm.occ, gm.spheres, q0[None], 0.05)
+    mark_robot(body, gm.occ, gm.spheres, q0[None], 0.05)
     np.testing.assert_array_equal(gm.swept_all, start_shell(gm.occ, gm.spheres, q0, 0.05, 0.10, task))
     assert (loose.swept_all & box & ~body).any() and not (gm.swept_all & box & ~body).any()
     assert gm.swept_all[loose.swept_all & ~box].all()

@@ -1,6 +1,7 @@
 """Certification: every rejection branch on a constructed scene, the recorded path replays
 without contact, the reference fixed-view check, determinism."""
 from dataclasses import replace
+import re
 
 import numpy as np
 import pytest
@@ -115,10 +116,18 @@ def test_a_target_too_heavy_to_lift_fails_in_physics():
     assert c.grasp_approach_deg is not None
 
 
-def test_no_path_when_the_planner_has_no_time():
-    c = certify(_scene(level=2), CertifyConfig(plan_time_s=1e-6, physics=False, reject_fv_solvable_severe=False,
-                                               reject_outside_visible_severe=False))
-    assert c.failure is CertFailure.NO_PATH
+def test_no_path_when_the_planner_has_no_checks_left_and_the_budget_is_counted_not_timed():
+    cfg = dict(physics=False, reject_fv_solvable_severe=False, reject_outside_visible_severe=False)
+    c = certify(_scene(level=2), CertifyConfig(plan_checks=1, **cfg))
+    assert c.failure is CertFailure.NO_PATH and c.plan_checks_max >= 1
+    ok = certify(_scene(level=2), CertifyConfig(**cfg))
+    assert ok.failure is None and 1 <= ok.plan_checks_max <= CertifyConfig().plan_checks
+
+
+@pytest.mark.parametrize("bad", [0, -5, 2.5, True, 10**9])
+def test_bad_plan_checks_are_refused_with_the_value(bad):
+    with pytest.raises(CompassInputError, match=re.escape(repr(bad))):
+        CertifyConfig(plan_checks=bad)
 
 
 def test_outside_view_gate_flags_a_severe_scene_whose_target_stands_in_the_open():

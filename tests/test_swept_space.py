@@ -1,8 +1,10 @@
 """The swept space marks only the spheres not already marked (`world_model.fresh_spheres`):
-the same mask as marking every sphere of every densified configuration."""
+the same mask as marking every sphere of every densified configuration; the fast sphere
+rasteriser (`mapping.distance.mark_in_spheres`) against testing every voxel of each sphere's box."""
 import numpy as np
 
-from compass_manip.exploration.world_model import WorldModel, fresh_spheres, mark_configs
+from compass_manip.exploration.world_model import WorldModel, fresh_spheres
+from compass_manip.mapping.distance import mark_robot
 from compass_manip.motion.timing import densify
 from compass_manip.robot.model import Q_MAX, Q_MIN, RobotConfig
 
@@ -17,6 +19,26 @@ def test_fresh_spheres_drops_repeats_of_the_configuration_before_and_of_the_last
     np.testing.assert_array_equal(fresh_spheres(c, prev)[0], [True, False])
 
 
+def brute_force_mark(mask, grid_min, res, centres, radii):
+    """Set the voxels of mask whose centres lie inside a sphere, testing every voxel of each
+    sphere's box with the kernels' own expression (dx^2 + dy^2 + dz^2 <= r^2)."""
+    n = np.array(mask.shape)
+    for c, r in zip(np.asarray(centres, float).reshape(-1, 3), np.asarray(radii, float).reshape(-1)):
+        lo = np.maximum(np.floor((c - r - grid_min) / res).astype(int), 0)
+        hi = np.minimum(np.floor((c + r - grid_min) / res).astype(int), n - 1)
+        if np.any(lo > hi):
+            continue
+        ax = [grid_min[a] + (np.arange(lo[a], hi[a] + 1) + 0.5) * res - c[a] for a in range(3)]
+        d2 = ax[0][:, None, None] ** 2 + ax[1][None, :, None] ** 2 + ax[2][None, None, :] ** 2
+        mask[lo[0]:hi[0] + 1, lo[1]:hi[1] + 1, lo[2]:hi[2] + 1] |= d2 <= r * r
+
+
+def robot_spheres(wm, Q, margin):
+    """(centres (m*S, 3) [m], radii (m*S,) [m]) of the robot's spheres at Q (m, 7), grown by margin."""
+    Q = np.asarray(Q, float).reshape(-1, 7)
+    return wm.spheres.sphere_centers(Q).reshape(-1, 3), np.tile(wm.spheres.radii + margin, len(Q))
+
+
 def test_swept_space_equals_every_sphere_marked():
     q0 = np.asarray(RobotConfig().q_home, float)
     wm = WorldModel(q0)
@@ -29,14 +51,13 @@ def test_swept_space_equals_every_sphere_marked():
         path = np.vstack([q, np.clip(q + np.cumsum(step, axis=0), Q_MIN + 0.01, Q_MAX - 0.01)])
         wm.add_swept(path, margin)
         m = wm.config.swept_margin if margin is None else margin
-        mark_configs(ref, wm.occ, wm.spheres, densify(path, wm.config.sweep_step), m)
+        brute_force_mark(ref, wm.occ.grid_min, wm.occ.resolution, *robot_spheres(wm, densify(path, wm.config.sweep_step), m))
         np.testing.assert_array_equal(wm.swept, ref)
         q = path[-1]
     assert ref.sum() > 1000
 
 
 def test_mark_in_spheres_equals_every_voxel_tested_and_keeps_what_was_set():
-    from compass_manip.exploration.world_model import mark_spheres
     from compass_manip.mapping.distance import mark_in_spheres
     rng = np.random.default_rng(3)
     grid_min, res = np.array([-0.3, -0.2, 0.1]), 0.01
@@ -47,14 +68,13 @@ def test_mark_in_spheres_equals_every_voxel_tested_and_keeps_what_was_set():
         r[:5] = 0.005 * np.arange(5)  # spheres smaller than a voxel, or of radius 0
         c[5:8] = grid_min + (np.array([[3, 4, 5], [10, 10, 10], [0, 0, 0]]) + 0.5) * res  # on voxel centres
         ref, fast = base.copy(), base.copy()
-        mark_spheres(ref, grid_min, res, c, r)
+        brute_force_mark(ref, grid_min, res, c, r)
         mark_in_spheres(fast, grid_min, res, c, r)
         np.testing.assert_array_equal(fast, ref)
         assert ref.sum() > base.sum() + 100
 
 
-def test_mark_robot_equals_mark_configs_on_a_1cm_grid():
-    from compass_manip.mapping.distance import mark_robot
+def test_mark_robot_equals_every_voxel_tested_on_a_1cm_grid():
     from compass_manip.mapping.occupancy import MapConfig, OccupancyMap
     occ = OccupancyMap(MapConfig())
     wm = WorldModel(np.asarray(RobotConfig().q_home, float))
@@ -62,7 +82,7 @@ def test_mark_robot_equals_mark_configs_on_a_1cm_grid():
     Q = np.clip(np.asarray(RobotConfig().q_home, float) + np.cumsum(rng.uniform(-0.1, 0.1, (40, 7)), axis=0),
                 Q_MIN + 0.01, Q_MAX - 0.01)
     ref, fast = np.zeros(occ.shape, bool), np.zeros(occ.shape, bool)
-    mark_configs(ref, occ, wm.spheres, Q, 0.05)
+    brute_force_mark(ref, occ.grid_min, occ.resolution, *robot_spheres(wm, Q, 0.05))
     mark_robot(fast, occ, wm.spheres, Q, 0.05)
     np.testing.assert_array_equal(fast, ref)
     assert ref.sum() > 10000

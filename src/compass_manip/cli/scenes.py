@@ -93,7 +93,7 @@ def run(args) -> int:
             "grasps_removed_by_obstacles": round(c.grasps_removed_by_obstacles, 4),
             "grasp_approach_deg": c.grasp_approach_deg, "grasp_yaw_deg": c.grasp_yaw_deg, "lift_height": round(c.lift_height, 4),
             "n_objects": c.n_objects, "n_distractors": c.n_colour_distractors + c.n_shape_distractors,
-            "n_valid_views": c.n_valid_views, "attempts": cs.attempts, "rejections": list(cs.rejections),
+            "n_valid_views": c.n_valid_views, "plan_checks_max": c.plan_checks_max, "attempts": cs.attempts, "rejections": list(cs.rejections),
             "time_s": round(time.perf_counter() - t0, 3),
         })
         if args.out:

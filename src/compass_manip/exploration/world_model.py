@@ -13,10 +13,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-import numba as nb
 import numpy as np
 
-from ..mapping.distance import unsafe_mask
+from ..mapping.distance import mark_in_spheres, mark_robot, unsafe_mask
 from ..mapping.distance_incremental import CappedDistance
 from ..mapping.frontiers import FrontierCluster, FrontierConfig, find_frontiers
 from ..mapping.observe import integrate_observation
@@ -80,29 +79,6 @@ class WorldModelConfig:
     frontiers: FrontierConfig = field(default_factory=lambda: FrontierConfig(min_cluster_size=4))
 
 
-@nb.njit(cache=True)
-def mark_spheres(mask, grid_min, res, centers, radii):
-    """Set mask voxels whose centres lie inside any sphere (centres (S, 3), radii (S,) [m])."""
-    nx, ny, nz = mask.shape
-    for s in range(centers.shape[0]):
-        c0, c1, c2, r = centers[s, 0], centers[s, 1], centers[s, 2], radii[s]
-        r2 = r * r
-        i0 = max(0, int(np.floor((c0 - r - grid_min[0]) / res)))
-        i1 = min(nx - 1, int(np.floor((c0 + r - grid_min[0]) / res)))
-        j0 = max(0, int(np.floor((c1 - r - grid_min[1]) / res)))
-        j1 = min(ny - 1, int(np.floor((c1 + r - grid_min[1]) / res)))
-        k0 = max(0, int(np.floor((c2 - r - grid_min[2]) / res)))
-        k1 = min(nz - 1, int(np.floor((c2 + r - grid_min[2]) / res)))
-        for i in range(i0, i1 + 1):
-            x = grid_min[0] + (i + 0.5) * res - c0
-            for j in range(j0, j1 + 1):
-                y = grid_min[1] + (j + 0.5) * res - c1
-                for k in range(k0, k1 + 1):
-                    z = grid_min[2] + (k + 0.5) * res - c2
-                    if x * x + y * y + z * z <= r2:
-                        mask[i, j, k] = True
-
-
 def outside_space_mask(occ: OccupancyMap, task, margin: float, floor_margin: float) -> np.ndarray:
     """(nx, ny, nz) bool: voxels outside the confined space's outer box grown by margin [m]
     (extended down to the floor) and higher than floor_margin [m] above the floor."""
@@ -120,14 +96,6 @@ def space_box_mask(occ: OccupancyMap, task, grow: float, down_to_floor: bool = F
         lo[2] = task.floor_z - 1.0
     c = occ.voxel_centers()
     return np.all((c >= lo) & (c <= hi), axis=-1)
-
-
-def mark_configs(mask: np.ndarray, occ: OccupancyMap, spheres, Q: np.ndarray, margin: float) -> None:
-    """Set the voxels of mask (occ's grid) inside the robot's spheres, grown by margin [m],
-    at every configuration of Q (m, 7) [rad] (`mark_spheres`)."""
-    Q = np.asarray(Q, dtype=np.float64).reshape(-1, 7)
-    c = np.ascontiguousarray(spheres.sphere_centers(Q).reshape(-1, 3))
-    mark_spheres(mask, occ.grid_min, occ.resolution, c, np.tile(spheres.radii + margin, len(Q)))
 
 
 def fresh_spheres(centers: np.ndarray, previous: np.ndarray | None) -> np.ndarray:
@@ -191,9 +159,9 @@ def start_shell(occ: OccupancyMap, spheres, q_start: np.ndarray, body_margin: fl
     starts near the opening must see them before it moves there."""
     q = np.asarray(q_start, dtype=np.float64).reshape(1, 7)
     body = np.zeros(occ.shape, bool)
-    mark_configs(body, occ, spheres, q, body_margin)
+    mark_robot(body, occ, spheres, q, body_margin)
     shell = np.zeros(occ.shape, bool)
-    mark_configs(shell, occ, spheres, q, free_margin)
+    mark_robot(shell, occ, spheres, q, free_margin)
     if task is not None:
         shell &= ~space_box_mask(occ, task, task.space.wall_thickness + occ.resolution)
     return body | shell
@@ -234,12 +202,11 @@ class WorldModel:
         margin [m] (default swept_margin), as safe."""
         margin = self.config.swept_margin if margin is None else float(margin)
         Q = densify(np.asarray(path, dtype=np.float64).reshape(-1, 7), self.config.sweep_step)
-        c = self.spheres.sphere_centers(Q)  # the same mask as mark_configs, without the spheres already marked
+        c = self.spheres.sphere_centers(Q)  # the same mask as mark_robot, without the spheres already marked
         last, last_margin = self._marked
         fresh = fresh_spheres(c, last if last_margin == margin else None)
         radii = np.broadcast_to(self.spheres.radii + margin, fresh.shape)
-        mark_spheres(self.swept, self.occ.grid_min, self.occ.resolution, np.ascontiguousarray(c[fresh]),
-                     np.ascontiguousarray(radii[fresh]))
+        mark_in_spheres(self.swept, self.occ.grid_min, self.occ.resolution, c[fresh], radii[fresh])
         self._marked = (c[-1].copy(), margin)
         self.q = np.asarray(path, dtype=np.float64).reshape(-1, 7)[-1].copy()
         self._checker = None

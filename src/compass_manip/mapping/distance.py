@@ -77,8 +77,8 @@ def mark_in_spheres(mask: np.ndarray, grid_min: np.ndarray, resolution: float, c
                     radii: np.ndarray) -> None:
     """Set True, in place, every voxel of mask (a bool grid with origin grid_min (3,) [m] and
     voxel edge resolution [m]) whose centre lies inside one of the spheres (centres (S, 3) [m],
-    radii (S,) [m]). The same mask as testing every voxel of each sphere's box
-    (`exploration.world_model.mark_spheres`), through `_clear_spheres` on the complement: one
+    radii (S,) [m]). The same mask as testing every voxel of each sphere's box (tested against
+    that brute force), through `_clear_spheres` on the complement: one
     run per (i, j) column, and 4^3 blocks already all set are skipped, which is what makes the
     thousands of overlapping spheres of an executed way cheap on a 1 cm grid."""
     if mask.dtype != np.bool_ or not mask.flags.c_contiguous:
@@ -116,7 +116,7 @@ def voxels_in_spheres(select: np.ndarray, grid_min: np.ndarray, resolution: floa
 def mark_robot(mask: np.ndarray, occ_map: OccupancyMap, spheres, Q: np.ndarray, margin: float) -> None:
     """Set True, in place, the voxels of mask (occ_map's grid) inside the robot's spheres
     (`robot.spheres.SphereModel`) grown by margin [m] at every configuration of Q (m, 7) [rad]
-    (`mark_in_spheres`; the mask of `exploration.world_model.mark_configs`)."""
+    (`mark_in_spheres`): the swept space and start shell of `exploration.world_model`."""
     Q = np.asarray(Q, dtype=np.float64).reshape(-1, 7)
     mark_in_spheres(mask, occ_map.grid_min, occ_map.resolution, spheres.sphere_centers(Q).reshape(-1, 3),
                     np.tile(np.asarray(spheres.radii, dtype=np.float64) + margin, len(Q)))

@@ -75,7 +75,9 @@ class CertifyConfig:
     """Sampling budget and thresholds of the certification. n_views camera poses (the uniform
     sample of the view statistics) out of n_view_poses (all searched for a good view), n_configs
     random configurations (uniform +-config_noise [rad] per joint about home), margin [m] of
-    the sphere checker, plan_time_s [s] per planning query, max_grasp_candidates tried;
+    the sphere checker, plan_checks: edge checks of tree growth per planning query (the
+    planner's deterministic budget, `PlannerConfig.max_checks`: the same scene on any machine
+    and load; a 2 s wall-clock budget until 2026-11-24), max_grasp_candidates tried;
     view_stride: pixel stride of the coarse visibility of the sampled views, refined exactly
     where the coarse value is within view_refine_margin of min_view_visibility.
     reject_fv_solvable_severe: make step 3 a gate (on by default: the severe layout, a tall
@@ -109,7 +111,7 @@ class CertifyConfig:
     view_stride: int = 3
     view_refine_margin: float = 0.15
     margin: float = 0.0
-    plan_time_s: float = 2.0
+    plan_checks: int = 100_000
     physics: bool = True
     reject_fv_solvable_severe: bool = True
     reject_outside_visible_severe: bool = True
@@ -120,6 +122,8 @@ class CertifyConfig:
     dense_grasp_levels: tuple[int, ...] = (4,)
 
     def __post_init__(self) -> None:
+        if isinstance(self.plan_checks, bool) or not isinstance(self.plan_checks, int) or not 1 <= self.plan_checks <= 10**8:
+            raise CompassInputError(f"plan_checks {self.plan_checks!r} is not allowed; use a whole number 1..10**8")
         if not 0.0 <= self.severe_grasp_margin <= 0.05:
             raise CompassInputError(f"severe_grasp_margin {self.severe_grasp_margin!r} m is not allowed; use 0..0.05 m")
 
@@ -142,7 +146,8 @@ class Certificate:
     outside sample (`outside_views`; None at the moderate levels, where it is not measured);
     view_camera_outside_m [m]: how far the certified view's camera stands in front of the
     opening plane (negative: inside; None if none);
-    lift_height [m] in physics; path: waypoints (n,7) [rad] home -> view -> pre-grasp -> grasp
+    lift_height [m] in physics; plan_checks_max: the most edge checks one planning query of
+    the certification used (its budget is `CertifyConfig.plan_checks`); path: waypoints (n,7) [rad] home -> view -> pre-grasp -> grasp
     -> lift with path_marks the indices of view, pre-grasp, grasp, lift; stage_times_s [s].
     """
 
@@ -163,6 +168,7 @@ class Certificate:
     best_outside_view_visibility: float | None = None
     view_camera_outside_m: float | None = None
     lift_height: float = 0.0
+    plan_checks_max: int = 0
     n_objects: int = 0
     n_colour_distractors: int = 0
     n_shape_distractors: int = 0
@@ -298,7 +304,13 @@ def _certify(scene: SceneSpec, config: CertifyConfig, world: World, t0: float) -
         n_wo = views.n_good_without + n_without
         if n_wo == 0 or 1.0 - (int(good.sum()) + n_with) / n_wo < config.min_obstacle_removal:
             return done(CertFailure.OBSTACLES_TOO_WEAK)
-    planner = PlannerConfig(time_budget=config.plan_time_s)
+    planner = PlannerConfig(max_checks=config.plan_checks)
+    rec["plan_checks_max"] = 0
+
+    def plan_q(q_start, goals):
+        r = plan(q_start, goals, full, planner, rng)
+        rec["plan_checks_max"] = max(rec["plan_checks_max"], int(r.n_checks))
+        return r
     path1 = None
     if not severe:  # a monotonic approach: the straight joint segment, else a planned path
         for q in goals[:6]:
@@ -306,14 +318,14 @@ def _certify(scene: SceneSpec, config: CertifyConfig, world: World, t0: float) -
                 path1 = np.stack([home, q])
                 break
         if path1 is None:
-            r = plan(home, goals, full, planner, rng)
+            r = plan_q(home, goals)
             if r.success and _monotonic(ik.kin, r.path, scene.target.pos):
                 path1 = r.path
         if path1 is None:
             lap("plan")
             return done(CertFailure.NO_MONOTONIC_VIEW)
     else:
-        r = plan(home, goals, full, planner, rng)
+        r = plan_q(home, goals)
         path1 = r.path if r.success else None
     if path1 is None:
         lap("plan")
@@ -321,7 +333,7 @@ def _certify(scene: SceneSpec, config: CertifyConfig, world: World, t0: float) -
     if world.visibility_from(ik.kin.T_world_cam(path1[-1]), with_robot=False) < config.min_view_visibility:
         lap("plan")  # the certified view, exactly (the search used coarse rays far from the threshold)
         return done(CertFailure.NO_VIEW_SEES_TARGET)
-    r2 = plan(path1[-1], np.stack([g.q_pregrasp for g in grasps]), full, planner, rng)
+    r2 = plan_q(path1[-1], np.stack([g.q_pregrasp for g in grasps]))
     lap("plan")
     if not r2.success:
         return done(CertFailure.NO_PATH)
@@ -329,7 +341,7 @@ def _certify(scene: SceneSpec, config: CertifyConfig, world: World, t0: float) -
     for k, gi in enumerate(order):
         g = grasps[gi]
         if k > 0:  # the second choice needs its own path
-            r2 = plan(path1[-1], g.q_pregrasp[None], full, planner, rng)
+            r2 = plan_q(path1[-1], g.q_pregrasp[None])
             if not r2.success:
                 continue
         out = grasp_and_lift(world, g.q_pregrasp, _line(g.q_pregrasp, g.q_grasp), _line(g.q_grasp, g.q_lift)) \
