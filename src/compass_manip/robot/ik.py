@@ -135,6 +135,39 @@ class PandaIK:
         T = np.broadcast_to(T_world_frame, (len(S), 4, 4))
         return _ordered(S, pe, re, T, q_ref, config.dedupe_tol, frame, failure)
 
+    def nearest(self, T_world_frame: np.ndarray, frame: str, q_ref: np.ndarray, n_q7: int | None = None,
+                validity=None, cache: dict | None = None, max_step: float | None = None) -> np.ndarray | None:
+        """`solve(T_world_frame, frame, q_ref, n_q7, validity, retry=False, cache=cache).best`
+        (7,) [rad] or None, without checking and ordering every solution: the sweep's solutions
+        are ordered by their distance to q_ref and the nearest is checked alone, the rest only
+        when it is invalid. With max_step [rad], None also when that solution moves a joint
+        by more than max_step from q_ref (and at once, with no validity check, when every
+        solution does)."""
+        T_world_frame = check_rigid(T_world_frame, "T_world_frame")
+        q_ref = check_q(q_ref, "q_ref")
+        n_q7 = self.config.n_q7 if n_q7 is None else _whole(n_q7, "n_q7", 1, 1000)
+        T_frame_hand = self._T_frame_hand.get(frame) if isinstance(frame, str) else None
+        if T_frame_hand is None:
+            T_frame_hand = inv_T(self.kin.T_hand_frame(frame))
+        T_world_hand = T_world_frame @ T_frame_hand
+        T_base_flange = self.T_base_world @ T_world_hand @ self.T_hand_link8
+        S = self._sweep_cached(T_world_hand, T_base_flange, q_ref, n_q7, cache)[0]
+        if len(S) == 0:
+            return None
+        order = np.argsort(np.linalg.norm(S - q_ref, axis=1), kind="stable")
+        step = np.max(np.abs(S - q_ref), axis=1)
+        if max_step is not None and not np.any(step <= max_step):
+            return None  # whichever solution is valid moves too far
+        best = None
+        if validity is None or np.asarray(validity.are_valid(S[order[:1]]), bool)[0]:
+            best = order[0]
+        elif len(order) > 1:
+            ok = np.asarray(validity.are_valid(S[order[1:]]), bool)
+            best = order[1:][np.argmax(ok)] if ok.any() else None
+        if best is None or (max_step is not None and step[best] > max_step):
+            return None
+        return S[best].copy()
+
     def _sweep_cached(self, T_world_hand, T_base_flange, q_ref, n_q7, cache):
         if cache is None:
             return self._sweep(T_world_hand, T_base_flange, q_ref, n_q7)
