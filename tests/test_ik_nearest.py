@@ -49,6 +49,29 @@ def test_nearest_reads_and_fills_the_same_sweep_cache_as_solve():
     T = kin.T_world_tcp(q + 0.1)
     cache: dict = {}
     got = ik.nearest(T, "tcp", q, 16, None, cache=cache)
-    assert len(cache) == 1
+    assert len(cache) == 2  # the sweep and its q7 grid's part
     np.testing.assert_array_equal(ik.solve(T, "tcp", q, 16, None, retry=False, cache=cache).best, got)
-    assert len(cache) == 1
+    assert len(cache) == 2
+
+
+def test_a_cached_sweep_from_another_q_ref_equals_a_fresh_sweep():
+    """The cache keeps the q7 grid's part of a pose's sweep for any q_ref: frankik's ik_full
+    must not read q_ref beyond q7 (checked here), and the solutions, errors and candidate
+    count then equal an uncached solve bit for bit."""
+    import frankik
+    kin = panda_sphere_model().kinematics
+    ik, rng = PandaIK(kin), np.random.default_rng(8)
+    q_home = np.asarray(Q_HOME, float)
+    cache: dict = {}
+    for _ in range(25):
+        T = kin.T_world_tcp(np.clip(q_home + rng.normal(0.0, 0.4, 7), Q_MIN, Q_MAX))
+        T_flange = ik.T_base_world @ T @ ik._T_frame_hand["tcp"] @ ik.T_hand_link8
+        for q_ref in (np.clip(q_home + rng.normal(0.0, 0.3, 7), Q_MIN, Q_MAX) for _ in range(3)):
+            other = np.clip(q_ref + rng.normal(0.0, 0.3, 7), Q_MIN, Q_MAX)
+            np.testing.assert_array_equal(frankik.ik_full(T_flange, q_ref, 0.3), frankik.ik_full(T_flange, other, 0.3))
+            fresh = ik.solve(T, "tcp", q_ref, 16, None, retry=False)
+            cached = ik.solve(T, "tcp", q_ref, 16, None, retry=False, cache=cache)
+            np.testing.assert_array_equal(cached.solutions, fresh.solutions)
+            np.testing.assert_array_equal(cached.pos_err, fresh.pos_err)
+            assert cached.failure == fresh.failure
+    assert sum(isinstance(k[0], str) for k in cache) == 25  # one grid part per pose

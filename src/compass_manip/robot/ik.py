@@ -173,18 +173,34 @@ class PandaIK:
             return self._sweep(T_world_hand, T_base_flange, q_ref, n_q7)
         key = (T_world_hand.tobytes(), q_ref.tobytes(), n_q7)
         if key not in cache:
-            cache[key] = self._sweep(T_world_hand, T_base_flange, q_ref, n_q7)
+            grid_key = ("q7 grid", T_world_hand.tobytes(), n_q7)  # the sweep's part that q_ref does not change
+            if grid_key not in cache:
+                cache[grid_key] = self._refined(T_world_hand, T_base_flange, q_ref, self._q7_grid(n_q7))
+            S, pe, re, n = self._refined(T_world_hand, T_base_flange, q_ref, q_ref[6:7])
+            G, gpe, gre, gn = cache[grid_key]
+            cache[key] = (np.concatenate([S, G]), np.concatenate([pe, gpe]), np.concatenate([re, gre]), n + gn)
         return cache[key]
 
+    @staticmethod
+    def _q7_grid(n_q7):
+        return np.linspace(Q_MIN[6], Q_MAX[6], n_q7 + 2)[1:-1]
+
     def _sweep(self, T_world_hand, T_base_flange, q_ref, n_q7):
-        """Refined analytic solutions (k,7), pos_err (k,), rot_err (k,) over a q7 sweep, and
-        the number of analytic candidates within the limits. The candidates are refined in
-        one compiled call (`refine_batch_kernel`: the same arithmetic as `refine_kernel` on
-        each, tests/test_ik_batch.py)."""
+        """Refined analytic solutions (k,7), pos_err (k,), rot_err (k,) over a q7 sweep (q_ref's
+        q7, then n_q7 values across its range), and the number of analytic candidates within
+        the limits. The candidates are refined in one compiled call (`refine_batch_kernel`:
+        the same arithmetic as `refine_kernel` on each, tests/test_ik_batch.py), so the sweep
+        is the concatenation of `_refined` over any split of its q7 values, in order: the
+        cache keeps the q7 grid's part per pose (frankik's `ik_full` reads only q7 of q_ref,
+        tests/test_ik_nearest.py)."""
+        return self._refined(T_world_hand, T_base_flange, q_ref,
+                             np.concatenate([[q_ref[6]], self._q7_grid(n_q7)]))
+
+    def _refined(self, T_world_hand, T_base_flange, q_ref, q7s):
+        """`_sweep`'s solutions for the q7 values q7s, in their order."""
         config = self.config
-        q7s = np.concatenate([[q_ref[6]], np.linspace(Q_MIN[6], Q_MAX[6], n_q7 + 2)[1:-1]])
         ik_full = self._frankik.ik_full
-        C = np.concatenate([ik_full(T_base_flange, q_ref, float(q7)) for q7 in q7s])
+        C = np.concatenate([ik_full(T_base_flange, q_ref, float(q7)) for q7 in q7s]).reshape(-1, 7)
         C = np.ascontiguousarray(C[np.isfinite(C).all(axis=1)], dtype=np.float64)
         Q, pe, re, ok = refine_batch_kernel(C, T_world_hand, self.kin.hand_index, *self._kernel_args, Q_MIN, Q_MAX,
                                             config.refine_iters, config.damping, config.tol_pos, config.tol_rot)
