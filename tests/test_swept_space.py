@@ -86,3 +86,24 @@ def test_mark_robot_equals_every_voxel_tested_on_a_1cm_grid():
     mark_robot(fast, occ, wm.spheres, Q, 0.05)
     np.testing.assert_array_equal(fast, ref)
     assert ref.sum() > 10000
+
+
+def test_union_order_puts_large_spheres_first_drops_repeats_and_marks_the_same_union():
+    from compass_manip.mapping.distance import mark_in_spheres, union_order
+    rng = np.random.default_rng(5)
+    c = rng.uniform(-0.2, 0.2, (60, 3))
+    r = rng.uniform(0.0, 0.1, 60)
+    c, r = np.vstack([c, c[:20]]), np.r_[r, r[:20]]  # 20 exact repeats (a way's base spheres)
+    c[70], r[70] = c[3], r[3] + 0.01  # same centre, another radius: not a repeat
+    k = union_order(c, r)
+    assert len(k) == 61 and len(np.unique(k)) == 61 and np.all(np.diff(r[k]) <= 0)
+    assert 70 in k and set(range(60)) <= set(k.tolist())  # the first of each repeat is kept
+    fast = np.zeros((40, 40, 40), bool)
+    mark_in_spheres(fast, np.full(3, -0.2), 0.01, c, r)
+    p = np.full(3, -0.2) + (np.stack(np.meshgrid(*[np.arange(40)] * 3, indexing="ij"), -1) + 0.5) * 0.01
+    ref = np.zeros(fast.shape, bool)
+    for cc, rr in zip(c, r):  # every voxel centre against every sphere, the kernel's own expression
+        d = p - cc
+        ref |= d[..., 0] * d[..., 0] + d[..., 1] * d[..., 1] + d[..., 2] * d[..., 2] <= rr * rr
+    np.testing.assert_array_equal(fast, ref)
+    assert len(union_order(np.zeros((0, 3)), np.zeros(0))) == 0

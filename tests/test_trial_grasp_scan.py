@@ -47,7 +47,7 @@ def test_grasp_stage_checks_the_hand_on_the_fine_map_of_the_grasp_maps_frames(mo
         seen = []
 
         def fake_select(target, occ, task_, q, spheres, config, rng, extra_safe=None, fine_map=None, q_via=None,
-                        proposer=None):
+                        proposer=None, ik_sweeps=None):
             seen.append((occ, fine_map, q_via))
             return GraspSelection(None, 0.0, 0.0, None, None, None, None, float("nan"), False, 0.0, np.zeros(3), 0,
                                   {}, 0.25, 0.0, GraspFailure.NO_APPROACH_PATH)
@@ -204,7 +204,7 @@ def test_near_body_halo_keeps_the_assumption_away_from_seen_obstacles(monkeypatc
         seen = []
 
         def fake_select(target, occ, task_, q, spheres, config, rng, extra_safe=None, fine_map=None, q_via=None,
-                        proposer=None):
+                        proposer=None, ik_sweeps=None):
             seen.append(np.array(extra_safe))
             return GraspSelection(None, 0.0, 0.0, None, None, None, None, float("nan"), False, 0.0, np.zeros(3), 0,
                                   {}, 0.25, 0.0, GraspFailure.NO_APPROACH_PATH)

@@ -227,12 +227,14 @@ class GraspChecks:
                  q_current: np.ndarray | None = None, box_margin: float = 0.25,
                  fine_map: OccupancyMap | None = None, inner_margin: float = 0.2, base_margin: float = 0.05,
                  exact_everywhere: bool = False, reuse: GraspChecks | None = None,
-                 tight_margin: float | None = 0.01):
+                 tight_margin: float | None = 0.01, ik_sweeps=None):
         """reuse: a GraspChecks built with the same arguments (all but exact_everywhere): its
         unsafe box, fine labels and map-grid transform are taken as they are (the exact
         fallback's second field needs only its own fine transform). tight_margin [m]: the
         field is also exact around each link of the robot as it stands with a sphere whose
-        map-grid clearance bound is below it (`tight_link_boxes`; None: not)."""
+        map-grid clearance bound is below it (`tight_link_boxes`; None: not). ik_sweeps: a
+        `grasp.ik_memo.IKSweeps` whose memoised IK sweeps this selection reads and adds to
+        (None: its own, as before; the answers are the same)."""
         self.ik, self.target, self.config = ik, target, config
         self.times: dict[str, float] = {}
         t = time.perf_counter()
@@ -249,7 +251,8 @@ class GraspChecks:
             a = np.clip(occ.world_to_voxel((pts.min(0) - box_margin)[None])[0], 0, shape - 1)
             b = np.clip(occ.world_to_voxel((pts.max(0) + box_margin)[None])[0], 0, shape - 1) + 1
             unsafe, robot, _ = grasp_unsafe_box(occ, target, config.clearance, a, b, safe_spheres, extra_safe)
-            self._parts = parts = {"a": a, "b": b, "unsafe": unsafe, "robot": robot, "ik": {}}
+            self._parts = parts = {"a": a, "b": b, "unsafe": unsafe, "robot": robot,
+                                   "ik": {} if ik_sweeps is None else ik_sweeps.for_solver(ik)}
         self.times["unsafe_s"] = time.perf_counter() - t
         t = time.perf_counter()
         ia, ib, base_box = exact_boxes(occ, a, b, target, spheres, cur, inner_margin, base_margin)
@@ -324,10 +327,11 @@ class GraspChecks:
         return self.ik.solve(T, "tcp", q_current, self.config.n_q7, None, cache=self._parts["ik"])
 
     def near(self, T: np.ndarray, q_ref: np.ndarray, validity) -> np.ndarray | None:
-        r = self.ik.solve(T, "tcp", q_ref, self.config.n_q7, validity, retry=False, cache=self._parts["ik"])
-        if not r.success or np.max(np.abs(r.solutions[0] - q_ref)) > self.config.max_joint_step:
-            return None
-        return r.solutions[0]
+        """The IK solution of T nearest q_ref (7,) [rad] among those valid for `validity`
+        (None: all), or None when there is none or it moves a joint by more than
+        `config.max_joint_step` (`PandaIK.nearest`: the nearest checked first)."""
+        return self.ik.nearest(T, "tcp", q_ref, self.config.n_q7, validity, cache=self._parts["ik"],
+                               max_step=self.config.max_joint_step)
 
     def check(self, T: np.ndarray, q_current: np.ndarray, pre: float, lift: float, lift_clear,
               solved=None):

@@ -92,14 +92,16 @@ def grasp_hypotheses(target: TargetModel, occ: OccupancyMap, task: Task, q_curre
                      spheres: SphereModel, select_config, config: HypothesisConfig, rng: np.random.Generator,
                      safe_spheres: tuple[np.ndarray, np.ndarray], extra_safe: np.ndarray | None = None,
                      ik: PandaIK | None = None, proposer: GraspProposer | None = None,
-                     stats: dict | None = None, fine_map: OccupancyMap | None = None) -> list[GraspHypothesis]:
+                     stats: dict | None = None, fine_map: OccupancyMap | None = None,
+                     ik_sweeps=None) -> list[GraspHypothesis]:
     """The best grasps (by score, then the higher grasp point) that pass the selection's
     checks with unknown space taken as free (module doc). select_config: the
     `select.GraspSelectConfig` whose cone, pre-grasp distances and lift heights apply;
     stats: if a dict, filled with the count of candidates dropped per check (the names of
     `select.Rejection`, with unknown space free); fine_map: the selection's fine local map
     (`select_grasp(fine_map=...)`), so the hypotheses are checked as the selection will check
-    them."""
+    them; ik_sweeps: a `grasp.ik_memo.IKSweeps` kept across calls (the IK asked before is not
+    solved again; the same hypotheses)."""
     stats = {} if stats is None else stats
     if rng is None:
         raise CompassInputError("grasp_hypotheses needs an explicit np.random.Generator (rng)")
@@ -110,7 +112,7 @@ def grasp_hypotheses(target: TargetModel, occ: OccupancyMap, task: Task, q_curre
     if extra_safe is not None:
         optimistic = optimistic | np.asarray(extra_safe, dtype=bool)
     checks = GraspChecks(occ, target, spheres, ik, select_config, safe_spheres, optimistic, q_current,
-                         fine_map=fine_map)
+                         fine_map=fine_map, ik_sweeps=ik_sweeps)
     n = desired_approach(target, task)
     cands = propose_in_cone(proposer, target, rng, n, select_config.max_approach_angle)
     if len(cands) == 0:

@@ -231,7 +231,8 @@ def select_grasp(target: TargetModel, occ: OccupancyMap, task: Task, q_current: 
                  rng: np.random.Generator | None = None, proposer: GraspProposer | None = None,
                  safe_spheres: tuple[np.ndarray, np.ndarray] | None = None,
                  ik: PandaIK | None = None, extra_safe: np.ndarray | None = None,
-                 fine_map: OccupancyMap | None = None, q_via: np.ndarray | None = None) -> GraspSelection:
+                 fine_map: OccupancyMap | None = None, q_via: np.ndarray | None = None,
+                 ik_sweeps=None) -> GraspSelection:
     """Select a grasp of `target` (Eq. 6) against the map `occ` from q_current (7,) [rad].
 
     spheres: the robot's sphere model with the fingers open (the approach width);
@@ -246,7 +247,8 @@ def select_grasp(target: TargetModel, occ: OccupancyMap, task: Task, q_current: 
     q_via (7,) [rad]: when the planner finds no path from q_current to a group of feasible
     pre-grasps, it tries q_current -> q_via -> pre-grasp (e.g. the home posture: a wrist deep
     in a storey after INSPECT may have no direct way to an approach from the opening), on the
-    same checker. rng: explicit generator (required).
+    same checker. rng: explicit generator (required). ik_sweeps: a `grasp.ik_memo.IKSweeps`
+    shared with earlier checks (INSPECT's hypotheses): IK they solved is not solved again.
     """
     t0 = time.perf_counter()
     if rng is None:
@@ -267,7 +269,7 @@ def select_grasp(target: TargetModel, occ: OccupancyMap, task: Task, q_current: 
         safe_c = np.vstack([safe_c, np.asarray(safe_spheres[0]).reshape(-1, 3)])
         safe_r = np.r_[safe_r, np.asarray(safe_spheres[1]).reshape(-1)]
     checks = GraspChecks(occ, target, spheres, ik, config, (safe_c, safe_r), extra_safe, q_current,
-                         fine_map=fine_map)
+                         fine_map=fine_map, ik_sweeps=ik_sweeps)
     field_, checker = checks.fine, checks.full
     stages = dict(checks.times)
     t_stage = time.perf_counter()

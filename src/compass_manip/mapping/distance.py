@@ -80,14 +80,29 @@ def mark_in_spheres(mask: np.ndarray, grid_min: np.ndarray, resolution: float, c
     radii (S,) [m]). The same mask as testing every voxel of each sphere's box (tested against
     that brute force), through `_clear_spheres` on the complement: one
     run per (i, j) column, and 4^3 blocks already all set are skipped, which is what makes the
-    thousands of overlapping spheres of an executed way cheap on a 1 cm grid."""
+    thousands of overlapping spheres of an executed way cheap on a 1 cm grid. The spheres go
+    in largest first, repeats once (`union_order`): the union is the same in any order, and
+    the blocks a large sphere fills are skipped by the smaller ones after it."""
     if mask.dtype != np.bool_ or not mask.flags.c_contiguous:
         raise CompassInputError(f"mark_in_spheres needs a C-contiguous bool mask, not {mask.dtype}")
+    c = np.ascontiguousarray(centres, dtype=np.float64).reshape(-1, 3)
+    r = np.ascontiguousarray(radii, dtype=np.float64).reshape(-1)
+    keep = union_order(c, r)
     rest = ~mask
-    _clear_spheres(rest, np.asarray(grid_min, dtype=np.float64), float(resolution),
-                   np.ascontiguousarray(centres, dtype=np.float64).reshape(-1, 3),
-                   np.ascontiguousarray(radii, dtype=np.float64).reshape(-1))
+    _clear_spheres(rest, np.asarray(grid_min, dtype=np.float64), float(resolution), c[keep], r[keep])
     np.logical_not(rest, out=mask)
+
+
+def union_order(centres: np.ndarray, radii: np.ndarray) -> np.ndarray:
+    """Indices of the spheres (centres (S,3), radii (S,) [m]) by radius, largest first (ties
+    in their order), each exact repeat (same centre and radius) once: the order in which
+    `_clear_spheres` skips the most blocks, for the same union."""
+    if len(radii) == 0:
+        return np.zeros(0, np.int64)
+    rows = np.ascontiguousarray(np.column_stack([centres, radii]), dtype=np.float64)
+    _, first = np.unique(rows.view(np.dtype((np.void, 32))).ravel(), return_index=True)
+    first = np.sort(first)
+    return first[np.argsort(-radii[first], kind="stable")]
 
 
 def voxels_in_spheres(select: np.ndarray, grid_min: np.ndarray, resolution: float, centres: np.ndarray,

@@ -135,23 +135,72 @@ class PandaIK:
         T = np.broadcast_to(T_world_frame, (len(S), 4, 4))
         return _ordered(S, pe, re, T, q_ref, config.dedupe_tol, frame, failure)
 
+    def nearest(self, T_world_frame: np.ndarray, frame: str, q_ref: np.ndarray, n_q7: int | None = None,
+                validity=None, cache: dict | None = None, max_step: float | None = None) -> np.ndarray | None:
+        """`solve(T_world_frame, frame, q_ref, n_q7, validity, retry=False, cache=cache).best`
+        (7,) [rad] or None, without checking and ordering every solution: the sweep's solutions
+        are ordered by their distance to q_ref and the nearest is checked alone, the rest only
+        when it is invalid. With max_step [rad], None also when that solution moves a joint
+        by more than max_step from q_ref (and at once, with no validity check, when every
+        solution does)."""
+        T_world_frame = check_rigid(T_world_frame, "T_world_frame")
+        q_ref = check_q(q_ref, "q_ref")
+        n_q7 = self.config.n_q7 if n_q7 is None else _whole(n_q7, "n_q7", 1, 1000)
+        T_frame_hand = self._T_frame_hand.get(frame) if isinstance(frame, str) else None
+        if T_frame_hand is None:
+            T_frame_hand = inv_T(self.kin.T_hand_frame(frame))
+        T_world_hand = T_world_frame @ T_frame_hand
+        T_base_flange = self.T_base_world @ T_world_hand @ self.T_hand_link8
+        S = self._sweep_cached(T_world_hand, T_base_flange, q_ref, n_q7, cache)[0]
+        if len(S) == 0:
+            return None
+        order = np.argsort(np.linalg.norm(S - q_ref, axis=1), kind="stable")
+        step = np.max(np.abs(S - q_ref), axis=1)
+        if max_step is not None and not np.any(step <= max_step):
+            return None  # whichever solution is valid moves too far
+        best = None
+        if validity is None or np.asarray(validity.are_valid(S[order[:1]]), bool)[0]:
+            best = order[0]
+        elif len(order) > 1:
+            ok = np.asarray(validity.are_valid(S[order[1:]]), bool)
+            best = order[1:][np.argmax(ok)] if ok.any() else None
+        if best is None or (max_step is not None and step[best] > max_step):
+            return None
+        return S[best].copy()
+
     def _sweep_cached(self, T_world_hand, T_base_flange, q_ref, n_q7, cache):
         if cache is None:
             return self._sweep(T_world_hand, T_base_flange, q_ref, n_q7)
         key = (T_world_hand.tobytes(), q_ref.tobytes(), n_q7)
         if key not in cache:
-            cache[key] = self._sweep(T_world_hand, T_base_flange, q_ref, n_q7)
+            grid_key = ("q7 grid", T_world_hand.tobytes(), n_q7)  # the sweep's part that q_ref does not change
+            if grid_key not in cache:
+                cache[grid_key] = self._refined(T_world_hand, T_base_flange, q_ref, self._q7_grid(n_q7))
+            S, pe, re, n = self._refined(T_world_hand, T_base_flange, q_ref, q_ref[6:7])
+            G, gpe, gre, gn = cache[grid_key]
+            cache[key] = (np.concatenate([S, G]), np.concatenate([pe, gpe]), np.concatenate([re, gre]), n + gn)
         return cache[key]
 
+    @staticmethod
+    def _q7_grid(n_q7):
+        return np.linspace(Q_MIN[6], Q_MAX[6], n_q7 + 2)[1:-1]
+
     def _sweep(self, T_world_hand, T_base_flange, q_ref, n_q7):
-        """Refined analytic solutions (k,7), pos_err (k,), rot_err (k,) over a q7 sweep, and
-        the number of analytic candidates within the limits. The candidates are refined in
-        one compiled call (`refine_batch_kernel`: the same arithmetic as `refine_kernel` on
-        each, tests/test_ik_batch.py)."""
+        """Refined analytic solutions (k,7), pos_err (k,), rot_err (k,) over a q7 sweep (q_ref's
+        q7, then n_q7 values across its range), and the number of analytic candidates within
+        the limits. The candidates are refined in one compiled call (`refine_batch_kernel`:
+        the same arithmetic as `refine_kernel` on each, tests/test_ik_batch.py), so the sweep
+        is the concatenation of `_refined` over any split of its q7 values, in order: the
+        cache keeps the q7 grid's part per pose (frankik's `ik_full` reads only q7 of q_ref,
+        tests/test_ik_nearest.py)."""
+        return self._refined(T_world_hand, T_base_flange, q_ref,
+                             np.concatenate([[q_ref[6]], self._q7_grid(n_q7)]))
+
+    def _refined(self, T_world_hand, T_base_flange, q_ref, q7s):
+        """`_sweep`'s solutions for the q7 values q7s, in their order."""
         config = self.config
-        q7s = np.concatenate([[q_ref[6]], np.linspace(Q_MIN[6], Q_MAX[6], n_q7 + 2)[1:-1]])
         ik_full = self._frankik.ik_full
-        C = np.concatenate([ik_full(T_base_flange, q_ref, float(q7)) for q7 in q7s])
+        C = np.concatenate([ik_full(T_base_flange, q_ref, float(q7)) for q7 in q7s]).reshape(-1, 7)
         C = np.ascontiguousarray(C[np.isfinite(C).all(axis=1)], dtype=np.float64)
         Q, pe, re, ok = refine_batch_kernel(C, T_world_hand, self.kin.hand_index, *self._kernel_args, Q_MIN, Q_MAX,
                                             config.refine_iters, config.damping, config.tol_pos, config.tol_rot)

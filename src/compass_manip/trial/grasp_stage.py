@@ -133,7 +133,7 @@ def strict_transfer(occ, target, spheres, q: np.ndarray, q_pregrasp: np.ndarray,
 def run_grasp_stage(world, occupancy, detection, task, q_current: np.ndarray, moved: list[np.ndarray],
                     config, rng: np.random.Generator, planning_charge_s: float | None,
                     grasp_map=None, pinned=None, method_rules=None, looker=None, look=None,
-                    method_swept=None) -> GraspStageResult:
+                    method_swept=None, ik_sweeps=None) -> GraspStageResult:
     """Select and execute a grasp of the detected target from q_current (7,) [rad].
 
     occupancy: the method's map; detection: the accepted `perception.detector.Detection`;
@@ -153,7 +153,9 @@ def run_grasp_stage(world, occupancy, detection, task, q_current: np.ndarray, mo
     frames to the maps and advances the clock; `moved` grows by the view's path);
     method_swept: `method_swept()` -> the method's own space on occupancy's grid (its world
     model's swept space: the way grown by its swept_margin, the start posture's shell), taken
-    as the robot's own with `config.method_swept`, as INSPECT counts it and the method moves."""
+    as the robot's own with `config.method_swept`, as INSPECT counts it and the method moves;
+    ik_sweeps: INSPECT's `grasp.ik_memo.IKSweeps` (`GraspInspector.ik_sweeps`), so the selection
+    does not solve again the IK INSPECT solved (the same selection), or None."""
     if rng is None:
         raise CompassInputError("run_grasp_stage needs an explicit np.random.Generator (rng)")
     q = np.asarray(q_current, dtype=np.float64)
@@ -192,11 +194,12 @@ def run_grasp_stage(world, occupancy, detection, task, q_current: np.ndarray, mo
         sel = None
         if verify is not None and verify.strict_first:  # through known-free space first
             sel = select_grasp(target, occupancy, task, q, spheres, config.select, rng, proposer=proposer,
-                               extra_safe=own, fine_map=fine)
+                               extra_safe=own, fine_map=fine, ik_sweeps=ik_sweeps)
             charge += sel.time_s + t_fine if planning_charge_s is None else planning_charge_s
         if sel is None or sel.failure is not None:
             sel = select_grasp(target, occupancy, task, q, spheres, config.select, rng, proposer=proposer,
-                               extra_safe=extra, fine_map=fine, q_via=q_home if config.plan_via_home else None)
+                               extra_safe=extra, fine_map=fine, q_via=q_home if config.plan_via_home else None,
+                               ik_sweeps=ik_sweeps)
             charge += sel.time_s + t_fine if planning_charge_s is None else planning_charge_s
         if sel.failure is not None:
             return GraspStageResult(_SELECT_FAILURE[sel.failure], charge, sel, None, q, 0, n_views, tuple(log))

@@ -30,6 +30,7 @@ from ..exploration.escape import EscapeConfig, escape_path
 from ..exploration.viewpoints import sample_direction_in_cone, view_pose
 from ..grasp.candidates import AntipodalProposer, GraspCandidates, PinnedProposer
 from ..grasp.hypotheses import grasp_hypotheses, needed_voxels, strict_unsafe_mask
+from ..grasp.ik_memo import IKSweeps
 from ..grasp.robot_space import base_volume_mask
 from ..grasp.target import build_target_model
 from ..mapping.occupancy import OccupancyMap
@@ -128,7 +129,8 @@ class GraspInspector:
     will take as the robot's own space (its `extra_safe` less the near-body voxels), when that
     is not `wm.swept`: a hypothesis's needed voxels are the unknown ones that selection
     counts as unsafe, so INSPECT does not stop on a grasp the selection then refuses (None:
-    `wm.swept`, the trial's GRASP with `method_swept`)."""
+    `wm.swept`, the trial's GRASP with `method_swept`). `ik_sweeps` (`grasp.ik_memo.IKSweeps`)
+    keeps the IK its steps solved, for the next steps and the GRASP stage's selection."""
 
     def __init__(self, wm, K: np.ndarray, task, target_config, select_config, config: InspectConfig,
                  rng: np.random.Generator, near_body=None, more_candidates=None, strict_safe=None) -> None:
@@ -143,6 +145,7 @@ class GraspInspector:
         self.last: dict = {}  # what the last step saw (hypotheses, needed voxels, views), for diagnosis
         self.stats: dict = {}
         self.pinned = GraspCandidates.empty()  # every hypothesis found so far (`pin`), newest first
+        self.ik_sweeps = IKSweeps()  # IK solved at any step, kept for the next ones and the GRASP stage
 
     def pin(self, hyps) -> None:
         """Keep the hypotheses' candidates (newest first, at most `config.max_pinned`, exact
@@ -181,7 +184,8 @@ class GraspInspector:
             proposer = PinnedProposer(AntipodalProposer(self.select_config.candidates), self.pinned)
             fine = wm.fine_map(pts) if hasattr(wm, "fine_map") else None
             hyps = grasp_hypotheses(target, occ, self.task, q, wm.spheres, self.select_config, self.config.hypotheses,
-                                    self.rng, safe, extra, self.ik, proposer, stats=self.stats, fine_map=fine)
+                                    self.rng, safe, extra, self.ik, proposer, stats=self.stats, fine_map=fine,
+                                    ik_sweeps=self.ik_sweeps)
             self.pin(hyps)
         return hyps, needed_voxels(occ, hyps, wm.spheres, strict, self.config.hypotheses)
 

@@ -158,11 +158,12 @@ def run_trial_full(spec: TrialSpec, config: TrialConfig | None = None, progress=
 
         def grasp(q, detection, moved, look=None):  # INSPECT's grasp hypotheses are checked first
             pinned = inspector.pinned if isinstance(inspector, GraspInspector) else None
+            sweeps = inspector.ik_sweeps if isinstance(inspector, GraspInspector) else None
             swept = None if own is None else (lambda: method.world.swept) if gmap is None else (lambda: gmap.swept)
             grasp_occ = method.occupancy if gmap is None else gmap.occ  # every frame so far integrated
             return run_grasp_stage(world, grasp_occ, detection, task, q, moved, grasp_config, grasp_rng, charge,
                                    grasp_map=gmap, pinned=pinned, method_rules=rules, looker=looker, look=look,
-                                   method_swept=swept)
+                                   method_swept=swept, ik_sweeps=sweeps)
     try:
         outcome = TrialMachine(world, method, buffer, metrics, config, progress, pass_frames=oracle,
                                grasp=grasp, observer=observers,
