@@ -329,6 +329,46 @@ def test_adaptive_edge_check_equals_checking_every_state(sm, prims, kind):
     assert 0.1 < np.mean(verdicts) < 0.95  # both verdicts occur
 
 
+def test_edge_kernels_check_every_state_and_the_from_kernel_skips_only_the_start(sm, prims):
+    """The edge kernels' one-loop bisection visits every state k = 0..n (edge_valid_kernel) or
+    k = 1..n (edge_valid_from_kernel): their verdicts equal checking each state, for every n
+    up to 17 (powers of two and not) and edges out of an invalid start."""
+    from compass_manip.motion.validity import edge_valid_from_kernel, edge_valid_kernel
+
+    vc = ValidityChecker(sm, obstacles=prims)
+    rng = np.random.default_rng(5)
+    Q = rng.uniform(Q_MIN, Q_MAX, (800, 7))
+    ok = vc.are_valid(Q)
+    starts = np.vstack([Q[ok][:40], Q[~ok][:20]])  # valid and invalid starts
+    seen = set()
+    for i, q0 in enumerate(starts):
+        q1 = np.clip(q0 + rng.uniform(-0.6, 0.6, 7), Q_MIN, Q_MAX)
+        for n in range(1, 18):
+            states = q0 + (q1 - q0) * (np.arange(n + 1)[:, None] / n)
+            valid = vc.are_valid(states)
+            full = bool(edge_valid_kernel(q0, q1, n, *vc.kernel_args()))
+            after = bool(edge_valid_from_kernel(q0, q1, n, *vc.kernel_args()))
+            assert full == bool(valid.all()) and after == bool(valid[1:].all()), (i, n)
+            seen.add((full, after))
+    assert seen == {(True, True), (False, False), (False, True)}  # each case occurs
+    # one state alone invalid: a 5 mm ball on the hand's last sphere at state k
+    q0 = np.asarray(Q_HOME, float)
+    q1 = q0 + np.array([2.4, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0])  # the hand sweeps sideways, far per step
+    cases = 0
+    for n in (5, 8, 11, 13, 16):
+        states = q0 + (q1 - q0) * (np.arange(n + 1)[:, None] / n)
+        for k in range(n + 1):
+            ball = PrimitiveSet.from_lists(spheres=[(sm.sphere_centers(states[k:k + 1])[0, -1], 0.005)])
+            one = ValidityChecker(sm, obstacles=ball)
+            valid = one.are_valid(states)
+            if valid.sum() != n:
+                continue  # another state hits the ball too
+            cases += 1
+            assert not edge_valid_kernel(q0, q1, n, *one.kernel_args()), (n, k)
+            assert bool(edge_valid_from_kernel(q0, q1, n, *one.kernel_args())) == (k == 0), (n, k)
+    assert cases >= 20  # 23 of the 58 (n, k)
+
+
 def test_checkers_of_one_sphere_model_share_its_packing_and_equal_a_fresh_one(sm, prims):
     """The packed spheres and motion bounds are computed once per sphere model and
     check_self; they equal a fresh packing, and a checker using them gives the same

@@ -388,30 +388,42 @@ def batch_valid_kernel(Q, kin, robot, grid, prims, limits, params):
 @nb.njit(cache=True, inline="always")
 def _edge_states_valid(q0, q1, n, check_start, kin, robot, grid, prims, limits, params):
     """Validity of the states q0 + (q1-q0) * k/n, k = 0..n (k = 0 only if check_start), in
-    bisection order: k = n, k = 0, then halving steps."""
+    bisection order: k = n, k = 0, then halving steps. One loop with one call of the
+    (inlined) state check: written with two, each edge kernel compiled two copies of it
+    (about 66 s of CPU apiece on a cold numba cache)."""
     L, S = kin.parent.shape[0], robot.radii.shape[0]
     links = np.empty((L, 4, 4))
     W = np.empty((S, 3))
     q = np.empty(7)
-    for k in (n, 0):
-        if k == 0 and not check_start:
-            continue
-        for j in range(7):
-            q[j] = q0[j] + (q1[j] - q0[j]) * (k / n)
-        if not config_valid_kernel(q, kin, robot, grid, prims, limits, params, links, W):
-            return False
     step = 1
     while step < n:  # smallest power of two >= n
         step *= 2
-    while step > 1:
-        half = step // 2
-        for k in range(half, n, step):
-            for j in range(7):
-                q[j] = q0[j] + (q1[j] - q0[j]) * (k / n)
-            if not config_valid_kernel(q, kin, robot, grid, prims, limits, params, links, W):
-                return False
-        step = half
-    return True
+    half = step // 2
+    k = half
+    phase = 0  # 0: the end state k = n, 1: the start k = 0, 2: the halving steps
+    while True:
+        if phase == 0:
+            kk = n
+            phase = 1
+        elif phase == 1:
+            phase = 2
+            if not check_start:
+                continue
+            kk = 0
+        else:
+            if step <= 1:
+                return True
+            if k >= n:  # this step's states are done: halve it
+                step = half
+                half = step // 2
+                k = half
+                continue
+            kk = k
+            k += step
+        for j in range(7):
+            q[j] = q0[j] + (q1[j] - q0[j]) * (kk / n)
+        if not config_valid_kernel(q, kin, robot, grid, prims, limits, params, links, W):
+            return False
 
 
 @nb.njit(cache=True)
