@@ -114,15 +114,8 @@ class PandaIK:
         only collision-free solutions. retry: sweep n_q7_retry values of q7 if n_q7 found none.
         cache: a dict the caller keeps; the q7 sweeps (before `validity`) are memoised in it by
         pose, q_ref and n_q7, so asking again (e.g. against another map) repeats no sweep."""
-        T_world_frame = check_rigid(T_world_frame, "T_world_frame")
-        q_ref = check_q(q_ref, "q_ref")
         config = self.config
-        n_q7 = config.n_q7 if n_q7 is None else _whole(n_q7, "n_q7", 1, 1000)
-        T_frame_hand = self._T_frame_hand.get(frame) if isinstance(frame, str) else None
-        if T_frame_hand is None:  # not a frame name: T_hand_frame says what is allowed
-            T_frame_hand = inv_T(self.kin.T_hand_frame(frame))
-        T_world_hand = T_world_frame @ T_frame_hand
-        T_base_flange = self.T_base_world @ T_world_hand @ self.T_hand_link8
+        T_world_frame, q_ref, n_q7, T_world_hand, T_base_flange = self._query(T_world_frame, frame, q_ref, n_q7)
         S, pe, re, n_cand = self._sweep_cached(T_world_hand, T_base_flange, q_ref, n_q7, cache)
         if retry and S.shape[0] == 0 and config.n_q7_retry > n_q7:
             S, pe, re, n_cand = self._sweep_cached(T_world_hand, T_base_flange, q_ref, config.n_q7_retry, cache)
@@ -143,14 +136,7 @@ class PandaIK:
         when it is invalid. With max_step [rad], None also when that solution moves a joint
         by more than max_step from q_ref (and at once, with no validity check, when every
         solution does)."""
-        T_world_frame = check_rigid(T_world_frame, "T_world_frame")
-        q_ref = check_q(q_ref, "q_ref")
-        n_q7 = self.config.n_q7 if n_q7 is None else _whole(n_q7, "n_q7", 1, 1000)
-        T_frame_hand = self._T_frame_hand.get(frame) if isinstance(frame, str) else None
-        if T_frame_hand is None:
-            T_frame_hand = inv_T(self.kin.T_hand_frame(frame))
-        T_world_hand = T_world_frame @ T_frame_hand
-        T_base_flange = self.T_base_world @ T_world_hand @ self.T_hand_link8
+        _, q_ref, n_q7, T_world_hand, T_base_flange = self._query(T_world_frame, frame, q_ref, n_q7)
         S = self._sweep_cached(T_world_hand, T_base_flange, q_ref, n_q7, cache)[0]
         if len(S) == 0:
             return None
@@ -167,6 +153,18 @@ class PandaIK:
         if best is None or (max_step is not None and step[best] > max_step):
             return None
         return S[best].copy()
+
+    def _query(self, T_world_frame, frame, q_ref, n_q7):
+        """The checked inputs of `solve` / `nearest`: (T_world_frame, q_ref, n_q7, T_world_hand,
+        T_base_flange), the hand in the world and frankik's flange in the robot base."""
+        T_world_frame = check_rigid(T_world_frame, "T_world_frame")
+        q_ref = check_q(q_ref, "q_ref")
+        n_q7 = self.config.n_q7 if n_q7 is None else _whole(n_q7, "n_q7", 1, 1000)
+        T_frame_hand = self._T_frame_hand.get(frame) if isinstance(frame, str) else None
+        if T_frame_hand is None:  # not a frame name: T_hand_frame says what is allowed
+            T_frame_hand = inv_T(self.kin.T_hand_frame(frame))
+        T_world_hand = T_world_frame @ T_frame_hand
+        return T_world_frame, q_ref, n_q7, T_world_hand, self.T_base_world @ T_world_hand @ self.T_hand_link8
 
     def _sweep_cached(self, T_world_hand, T_base_flange, q_ref, n_q7, cache):
         if cache is None:
