@@ -64,6 +64,26 @@ def split(occ, mask, own, near, carve, scene) -> dict:
     return out
 
 
+def base_primitive_states(occ, near, own, scene) -> dict:
+    """Per static primitive named base* (GROUND TRUTH): the map's voxels whose centres lie in
+    it, as [seen occupied, seen free, unknown taken as free (near-body / own), unknown]."""
+    out = {}
+    idx = np.argwhere(np.ones(occ.shape, bool))
+    centres = occ.voxel_to_world(idx)
+    for p in scene.static_primitives():
+        if not p.name.startswith("base"):
+            continue
+        v = idx[inside_primitive(p, centres)]
+        if not len(v):
+            continue
+        st = occ.state[tuple(v.T)]
+        unk = st == VoxelState.UNKNOWN
+        taken = unk & (near[tuple(v.T)] | own[tuple(v.T)])
+        out[p.name] = [int(np.count_nonzero(st == VoxelState.OCCUPIED)), int(np.count_nonzero(st == VoxelState.FREE)),
+                       int(np.count_nonzero(taken)), int(np.count_nonzero(unk & ~taken))]
+    return out
+
+
 def main() -> int:
     ap = argparse.ArgumentParser()
     ap.add_argument("--variant", default="default")
@@ -128,6 +148,7 @@ def main() -> int:
                            "n_valid": int(p.n_valid)}
             box["look_q"] = None if p.path is None else np.asarray(p.path)[-1]
             box["look_vox"], box["look_gt"] = nb, gt
+        rec["base_primitives"] = base_primitive_states(occ, near, own, world.scene)
         box["occ_copy"] = copy.deepcopy(occ)
         box["rec"] = rec
         out = orig_exec(world, sel, q, exec_cfg)

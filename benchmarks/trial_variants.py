@@ -189,3 +189,35 @@ def grasp_look_outward(spec) -> tuple[dict, dict]:
 
 def grasp_look_assumed(spec) -> tuple[dict, dict]:
     return _run(spec, grasp_look_assumed_config())
+
+
+def near_yaw_config(yaw: float) -> TrialConfig:
+    """The defaults with the near-body assumption's joint-1 range narrowed to +-yaw [rad]."""
+    return TrialConfig(grasp=replace(GraspTrialConfig(), near_body_yaw=yaw))
+
+
+def near_yaw06(spec) -> tuple[dict, dict]:
+    return _run(spec, near_yaw_config(0.6))
+
+
+def near_yaw08(spec) -> tuple[dict, dict]:
+    return _run(spec, near_yaw_config(0.8))
+
+
+def near_yaw06_config() -> TrialConfig:
+    return near_yaw_config(0.6)
+
+
+def near_yaw08_config() -> TrialConfig:
+    return near_yaw_config(0.8)
+
+
+def scan_assumed_config() -> TrialConfig:
+    """The defaults (the near-body assumption included) with the trial's near-field scan first
+    (`TrialScanConfig()`, up to 8 views of the unknown box around the base): what the scan sees
+    occupied, the assumption (kept near_body_halo away) no longer takes as free."""
+    return TrialConfig(grasp=replace(GraspTrialConfig(), scan=TrialScanConfig()))
+
+
+def scan_assumed(spec) -> tuple[dict, dict]:
+    return _run(spec, scan_assumed_config())

@@ -195,3 +195,29 @@ def test_voxels_in_spheres_equals_argwhere_of_the_brute_force():
         assert got.dtype == np.int64 and np.array_equal(got, want)
     assert voxels_in_spheres(select, gm, res, np.zeros((0, 3)), np.zeros(0)).shape == (0, 3)
     assert voxels_in_spheres(select, gm, res, np.array([[5.0, 5.0, 5.0]]), np.array([0.1])).shape == (0, 3)
+
+
+def test_near_body_yaw_narrows_the_assumption_to_the_arm_facing_home():
+    """The near-body volume with joint 1 within +-0.6 rad of home's lies (up to its finer joint-1
+    sampling) inside the default +-1.2 rad one and is much smaller; a voxel beside the base at elbow height (where level-3 lateral base
+    walls stand) is in the wide volume only; the default yaw gives the former mask exactly;
+    bad yaw values are refused with the value named."""
+    from compass_manip.robot.model import RobotConfig
+    from compass_manip.grasp.robot_space import near_body_spheres, near_body_swept
+    from compass_manip.trial.config import GraspTrialConfig
+
+    spheres = panda_sphere_model()
+    home = np.asarray(RobotConfig().q_home)
+    occ = OccupancyMap(MapConfig(box_min=(-0.64, -0.72, -0.08), box_max=(0.96, 0.72, 1.2), resolution=0.04))
+    wide, narrow = near_body_swept(occ, spheres, home), near_body_swept(occ, spheres, home, 0.6)
+    assert np.array_equal(near_body_swept(occ, spheres, home, 1.2), wide)
+    assert np.count_nonzero(narrow & ~wide) < 0.02 * narrow.sum() and narrow.sum() < 0.8 * wide.sum()
+    side = occ.world_to_voxel(np.array([[0.02, -0.26, 0.56]]))[0]
+    assert wide[tuple(side)] and not narrow[tuple(side)]
+    front = occ.world_to_voxel(np.array([[0.30, 0.0, 0.60]]))[0]
+    assert narrow[tuple(front)]
+    for bad in (-0.1, 3.5, True, "1"):
+        with pytest.raises(CompassInputError, match="near_body_yaw"):
+            GraspTrialConfig(near_body_yaw=bad)
+    with pytest.raises(CompassInputError, match="yaw"):
+        near_body_spheres(spheres, home, 3.5)

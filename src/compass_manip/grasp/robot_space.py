@@ -108,12 +108,15 @@ def base_volume_mask(spheres: SphereModel, occ: OccupancyMap) -> np.ndarray:
     return _grid_constant("base_volume", spheres, occ, b"", build)
 
 
-def near_body_spheres(spheres: SphereModel, q_home: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def near_body_spheres(spheres: SphereModel, q_home: np.ndarray, yaw: float = 1.2) -> tuple[np.ndarray, np.ndarray]:
     """(centres (S, 3) [m], radii (S,) [m]) of links 0-4's spheres swept around q_home: joint 1
-    within +-1.2 rad, joints 2-4 over a grid (675 configurations)."""
+    within +-yaw [rad] of q_home's (9 values), joints 2-4 over a grid (675 configurations)."""
+    if not 0.0 <= yaw <= 2.9:
+        raise CompassInputError(f"near-body yaw {yaw!r} rad is not allowed; use 0..2.9 rad")
     names = ("panda_link0", "panda_link1", "panda_link2", "panda_link3", "panda_link4")
     keep = np.isin(spheres.body_index, [spheres.link_names.index(k) for k in names])
-    grids = np.meshgrid(np.linspace(-1.2, 1.2, 9), np.linspace(-1.2, 1.0, 5), (-0.5, 0.0, 0.5),
+    q1 = float(np.asarray(q_home, dtype=np.float64)[0]) + np.linspace(-yaw, yaw, 9)
+    grids = np.meshgrid(q1, np.linspace(-1.2, 1.0, 5), (-0.5, 0.0, 0.5),
                         np.linspace(-3.0, -0.8, 5), indexing="ij")
     Q = np.repeat(np.asarray(q_home, dtype=np.float64)[None], grids[0].size, axis=0)
     for j in range(4):
@@ -121,16 +124,17 @@ def near_body_spheres(spheres: SphereModel, q_home: np.ndarray) -> tuple[np.ndar
     return spheres.sphere_centers(Q)[:, keep].reshape(-1, 3), np.tile(spheres.radii[keep], len(Q))
 
 
-def near_body_swept(occ: OccupancyMap, spheres: SphereModel, q_home: np.ndarray) -> np.ndarray:
+def near_body_swept(occ: OccupancyMap, spheres: SphereModel, q_home: np.ndarray, yaw: float = 1.2) -> np.ndarray:
     """(nx, ny, nz) bool, read-only: the voxels of occ's grid whose centres lie inside
-    `near_body_spheres`. A constant of the robot and the grid, computed once per sphere
-    model, grid and q_home (71,550 spheres)."""
+    `near_body_spheres` (joint 1 within +-yaw [rad] of q_home's). A constant of the robot and
+    the grid, computed once per sphere model, grid, q_home and yaw (71,550 spheres)."""
     q_home = np.asarray(q_home, dtype=np.float64)
+    yaw = float(yaw)
 
     def build():
         inside = np.zeros(occ.shape, bool)
-        mark_in_spheres(inside, occ.grid_min, occ.resolution, *near_body_spheres(spheres, q_home))
+        mark_in_spheres(inside, occ.grid_min, occ.resolution, *near_body_spheres(spheres, q_home, yaw))
         inside.flags.writeable = False
         return inside
 
-    return _grid_constant("near_body", spheres, occ, q_home.tobytes(), build)
+    return _grid_constant("near_body", spheres, occ, q_home.tobytes() + np.float64(yaw).tobytes(), build)

@@ -215,12 +215,13 @@ def near_field_configs(world: World, rng: np.random.Generator, n: int) -> list[n
     return out
 
 
-def near_body_unknown(occ: OccupancyMap, spheres, q_home: np.ndarray) -> np.ndarray:
+def near_body_unknown(occ: OccupancyMap, spheres, q_home: np.ndarray, yaw: float = 1.2) -> np.ndarray:
     """NEAR-BODY ASSUMPTION (stands in for the NFA scan, which the exploration branch owns):
-    unknown voxels inside the volume swept by links 0-4 around the home posture
-    (`grasp.robot_space.near_body_swept`) are taken as free. Voxels seen occupied there stay unsafe. A wrist
-    camera cannot see the space its own elbow moves through."""
-    return near_body_swept(occ, spheres, q_home) & (occ.state == VoxelState.UNKNOWN)
+    unknown voxels inside the volume swept by links 0-4 around the home posture, joint 1
+    within +-yaw [rad] of home's (`grasp.robot_space.near_body_swept`), are taken as free.
+    Voxels seen occupied there stay unsafe. A wrist camera cannot see the space its own
+    elbow moves through."""
+    return near_body_swept(occ, spheres, q_home, yaw) & (occ.state == VoxelState.UNKNOWN)
 
 
 def oracle_detection(world: World, frame) -> np.ndarray:

@@ -130,6 +130,7 @@ class GraspTrialConfig:
     plan_via_home: bool = False
     outside_free: bool = False
     near_body_halo: float = 0.08
+    near_body_yaw: float = 1.2
     verify: VerifyConfig | None = None
     method_swept: bool = True
 
@@ -139,6 +140,9 @@ class GraspTrialConfig:
         if self.verify is not None and not isinstance(self.verify, VerifyConfig):
             raise CompassInputError(f"GraspTrialConfig.verify = {self.verify!r:.40} is not allowed; "
                                     "use a VerifyConfig or None")
+        if isinstance(self.near_body_yaw, bool) or not isinstance(self.near_body_yaw, (int, float)) \
+                or not 0.0 <= self.near_body_yaw <= 2.9:
+            raise CompassInputError(f"near_body_yaw {self.near_body_yaw!r} rad is not allowed; use 0..2.9 rad")
         if not 0.0 <= self.near_body_halo <= 0.3:
             raise CompassInputError(f"near_body_halo {self.near_body_halo} m is not allowed; use 0..0.3 m")
         if not 0.0 <= self.moved_margin <= 0.1 or not 1 <= self.max_moved_configs <= 100000:

@@ -92,7 +92,8 @@ def assumed_unknown_free(occ, config, spheres, q_home: np.ndarray, task, rules) 
     `WorldModelConfig`, or None) the unknown space its own checker takes as free."""
     out = np.zeros(occ.shape, bool)
     if config.near_body_free:
-        out |= method_safe_voxels(occ, out, near_body_unknown(occ, spheres, q_home), config.near_body_halo)
+        out |= method_safe_voxels(occ, out, near_body_unknown(occ, spheres, q_home, config.near_body_yaw),
+                                  config.near_body_halo)
     if config.outside_free and rules is not None:
         out |= method_safe_voxels(occ, out, assumed_free_mask(occ, task, rules), rules.obstacle_halo)
     return out
