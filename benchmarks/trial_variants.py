@@ -25,6 +25,9 @@
   assumption took as free (`VerifyConfig(assumed_only=True, refuse=False)`, branch e2e4).
 * grasp_look_outward: as grasp_look_assumed, a third of the look directions away from the base.
 * find_only: no GRASP state (the trial ends at FOUND), as `compass run --find-only`.
+* near_yaw06 / near_yaw08: the defaults with the near-body volume swept with joint 1 within
+  +-0.6 / +-0.8 rad of home's (`GraspTrialConfig.near_body_yaw`; default 1.2).
+* scan_assumed: the defaults with the trial's near-field scan before INSPECT (8 views).
 """
 from __future__ import annotations
 
