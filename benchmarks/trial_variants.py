@@ -224,3 +224,13 @@ def scan_assumed_config() -> TrialConfig:
 
 def scan_assumed(spec) -> tuple[dict, dict]:
     return _run(spec, scan_assumed_config())
+
+
+def inspect_groups_config() -> TrialConfig:
+    """The defaults with INSPECT trying up to 3 groups of views per step (`InspectConfig.plan_groups`)."""
+    g = GraspTrialConfig()
+    return TrialConfig(grasp=replace(g, inspect=replace(g.inspect, plan_groups=3)))
+
+
+def inspect_groups(spec) -> tuple[dict, dict]:
+    return _run(spec, inspect_groups_config())
