@@ -115,7 +115,7 @@ def test_method_and_grasp_sides_use_the_deterministic_budget():
     from compass_manip.trial.inspect import InspectConfig
     from compass_manip.trial.verify import VerifyConfig
 
-    for cfg, checks in ((GraspSelectConfig().planner, DEFAULT_MAX_CHECKS), (InspectConfig().planner, DEFAULT_MAX_CHECKS),
+    for cfg, checks in ((GraspSelectConfig().planner, 3 * DEFAULT_MAX_CHECKS), (InspectConfig().planner, DEFAULT_MAX_CHECKS),
                         (VerifyConfig().planner, DEFAULT_MAX_CHECKS), (ViewPlanningConfig().planner, 2 * DEFAULT_MAX_CHECKS),
                         (TrialScanConfig().planner, 2 * DEFAULT_MAX_CHECKS)):
         assert cfg.time_budget is None and cfg.max_checks == checks
