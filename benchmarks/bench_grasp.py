@@ -35,6 +35,7 @@ from compass_manip.grasp.candidates import AntipodalProposer, propose_in_cone
 from compass_manip.grasp.select import GraspSelectConfig, desired_approach
 from compass_manip.sim.certify import certified_scene
 from compass_manip.mapping.occupancy import MapConfig
+from compass_manip.motion.planner import PlannerConfig
 from compass_manip.sim import grasp_only
 from compass_manip.sim.grasp_only import GraspOnlyConfig, run_grasp_only
 from compass_manip.sim.near_field import WIDE_SCAN
@@ -135,6 +136,9 @@ def main() -> int:
                          "(the format of capture_select_inputs.py, for replay_select.py)")
     ap.add_argument("--inspect-set", nargs="*", default=[],
                     help="InspectConfig field=value overrides (python literals), e.g. n_up=0 escape=False")
+    ap.add_argument("--select-set", nargs="*", default=[],
+                    help="GraspSelectConfig field=value overrides (python literals; PlannerConfig(...) allowed), e.g. "
+                         "max_failed_plans=6 'planner=PlannerConfig()' (main's budget before branch gmod)")
     args = ap.parse_args()
     inspect = InspectConfig() if args.inspect_views is None else InspectConfig(n_views=args.inspect_views)
     inspect = replace(inspect, **{k: ast.literal_eval(v) for k, v in (s.split("=", 1) for s in args.inspect_set)})
@@ -147,6 +151,8 @@ def main() -> int:
             scene = certified_scene(level, index, args.seed).scene
             for constrained in variants:
                 select = GraspSelectConfig(constrained=constrained)
+                select = replace(select, **{k: eval(v, {"PlannerConfig": PlannerConfig})  # noqa: S307 (a bench flag)
+                                            for k, v in (a.split("=", 1) for a in args.select_set)})
                 if args.plan_budget is not None:
                     select = replace(select, planner=replace(select.planner, time_budget=args.plan_budget, max_checks=None))
                 config = GraspOnlyConfig(select=select, fine_map=not args.no_fine_map,

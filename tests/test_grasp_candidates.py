@@ -169,3 +169,26 @@ def test_contact_pairs_equal_the_whole_array_rule(seed):
     assert np.allclose(width[ok], np.linalg.norm(P[j[ok]] - P[first[ok]], axis=1)) and np.all(width[~ok] == 0)
     j0, _ = contact_pairs(P, N, first[:20], cfg)  # default directions: the inward normals
     assert np.array_equal(j0, _reference_pairs(P, N, first[:20], -N[first[:20]], cfg))
+
+
+def test_top_margin_and_max_tilt_drop_rim_contacts_and_tilted_closing_lines():
+    """Off by default; on, no contact in the top layer of points and no closing line tilted
+    past max_tilt (levels 1 + 3: the grasps that dropped or slipped had a contact on the top
+    rim and lines tilted 31-57 deg)."""
+    P, N = box_surface((0.025, 0.025, 0.06))
+    top = P[:, 2].max()
+    base = antipodal_candidates(model(P, N), CandidateConfig(n_contacts=200), np.random.default_rng(3))
+    rise = np.abs(base.p2[:, 2] - base.p1[:, 2]) / base.width
+    assert np.any(np.maximum(base.p1[:, 2], base.p2[:, 2]) > top - 0.004)  # the default keeps rim contacts
+    assert np.any(rise > np.sin(np.radians(20.0)))  # and tilted lines
+    rim = antipodal_candidates(model(P, N), CandidateConfig(n_contacts=200, top_margin=0.004),
+                               np.random.default_rng(3))
+    assert len(rim) > 0 and np.all(np.maximum(rim.p1[:, 2], rim.p2[:, 2]) <= top - 0.004)
+    flat = antipodal_candidates(model(P, N), CandidateConfig(n_contacts=200, max_tilt=np.radians(20.0)),
+                                np.random.default_rng(3))
+    assert len(flat) > 0
+    assert np.all(np.abs(flat.p2[:, 2] - flat.p1[:, 2]) <= np.sin(np.radians(20.0)) * flat.width + 1e-12)
+    with pytest.raises(CompassInputError):
+        CandidateConfig(top_margin=-0.001)
+    with pytest.raises(CompassInputError):
+        CandidateConfig(max_tilt=2.0)

@@ -115,7 +115,18 @@ def test_method_and_grasp_sides_use_the_deterministic_budget():
     from compass_manip.trial.inspect import InspectConfig
     from compass_manip.trial.verify import VerifyConfig
 
-    for cfg, checks in ((GraspSelectConfig().planner, DEFAULT_MAX_CHECKS), (InspectConfig().planner, DEFAULT_MAX_CHECKS),
+    for cfg, checks in ((GraspSelectConfig().planner, 2 * DEFAULT_MAX_CHECKS), (InspectConfig().planner, DEFAULT_MAX_CHECKS),
                         (VerifyConfig().planner, DEFAULT_MAX_CHECKS), (ViewPlanningConfig().planner, 2 * DEFAULT_MAX_CHECKS),
                         (TrialScanConfig().planner, 2 * DEFAULT_MAX_CHECKS)):
         assert cfg.time_budget is None and cfg.max_checks == checks
+
+
+def test_the_selection_spends_its_failed_plans_on_fewer_longer_searches():
+    """Branch gmod: 2 x the default checks a call, 3 failed calls a field: the same 120,000 checks
+    at most as 6 calls of 20,000 (a narrow way out of the cabinet needed 21-32k in one search)."""
+    from compass_manip.grasp.select import SELECT_MAX_CHECKS, GraspSelectConfig
+
+    cfg = GraspSelectConfig()
+    assert cfg.planner.max_checks == SELECT_MAX_CHECKS == 2 * DEFAULT_MAX_CHECKS
+    assert cfg.max_failed_plans == 3
+    assert cfg.planner.max_checks * cfg.max_failed_plans == 6 * DEFAULT_MAX_CHECKS

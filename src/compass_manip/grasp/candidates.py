@@ -43,7 +43,15 @@ class CandidateConfig:
     line_radius [m]: second-contact search radius around the closing line; width_clearance
     [m]: free opening beyond the contacts on each side (w + 2 clearance <= 0.08 m);
     min_width [m]; depths [m]: TCP offsets along the approach past the contact midpoint;
-    top_fraction of the first contacts drawn within top_band [m] of the target's top."""
+    top_fraction of the first contacts drawn within top_band [m] of the target's top;
+    top_margin [m]: both contacts at least this far below the target's highest point (0:
+    not checked; a contact in the top layer of points lies on the rim of the top face, an
+    edge, where the PCA normals blend the top and the side); max_tilt [rad]: the closing
+    line within this angle of the horizontal (None: not checked; a flat pad on a vertical
+    side under a tilted closing line touches it along one of its own edges). Both off by
+    default: on levels 1 + 3 of seed 0 they turned the executed grasps that dropped or
+    slipped into selection failures without a grasp gained (docs/grasping_log.md, branch
+    gmod)."""
 
     n_contacts: int = 120
     n_directions: int = 4
@@ -55,8 +63,14 @@ class CandidateConfig:
     depths: tuple[float, ...] = (0.0,)
     top_fraction: float = 0.5
     top_band: float = 0.05
+    top_margin: float = 0.0
+    max_tilt: float | None = None
 
     def __post_init__(self) -> None:
+        if not 0.0 <= self.top_margin <= 0.05:
+            raise CompassInputError(f"top_margin {self.top_margin} m is not allowed; use 0..0.05 m")
+        if self.max_tilt is not None and not 0.0 <= self.max_tilt <= np.pi / 2:
+            raise CompassInputError(f"max_tilt {self.max_tilt} rad is not allowed; use [0, pi/2] or None")
         if not 1 <= self.n_directions <= 100 or not 0.0 <= self.cone < np.pi / 2:
             raise CompassInputError(f"n_directions {self.n_directions} / cone {self.cone} rad not allowed; "
                                     "use 1..100 and [0, pi/2)")
@@ -319,6 +333,16 @@ def antipodal_candidates(target: TargetModel, config: CandidateConfig | None = N
     if len(i) == 0:
         return GraspCandidates.empty()
     p1, p2, n1, n2 = P[i], P[j], N[i], N[j]
+    keep = np.ones(len(p1), dtype=bool)
+    if config.top_margin > 0.0:  # contacts on the top face's rim
+        below = P[:, 2].max() - config.top_margin
+        keep &= (p1[:, 2] <= below) & (p2[:, 2] <= below)
+    if config.max_tilt is not None:  # the closing line's rise over its length
+        keep &= np.abs(p2[:, 2] - p1[:, 2]) <= np.sin(config.max_tilt) * width
+    if not keep.all():
+        p1, p2, n1, n2, width = p1[keep], p2[keep], n1[keep], n2[keep], width[keep]
+        if len(p1) == 0:
+            return GraspCandidates.empty()
     score = graspnet_score(p1, p2, n1, n2)
     keep = score > 0
     p1, p2, n1, n2, width, score = p1[keep], p2[keep], n1[keep], n2[keep], width[keep], score[keep]

@@ -31,7 +31,7 @@ import numpy as np
 from ..errors import CompassInputError
 from ..mapping.distance import DistanceField
 from ..mapping.occupancy import OccupancyMap, VoxelState
-from ..motion.planner import PlannerConfig, PlanResult, plan
+from ..motion.planner import DEFAULT_MAX_CHECKS, PlannerConfig, PlanResult, plan
 from ..motion.primitives import DistanceGrid
 from ..motion.validity import ValidityChecker, ValidityConfig
 from ..robot.ik import PandaIK
@@ -44,6 +44,16 @@ from .checks import (GraspChecks, first_clear, hand_clear, lift_steps, offset_po
                      pregrasp_steps, rigid_hand_spheres)
 from .robot_space import base_volume, base_volume_mask  # noqa: F401 (re-exported)
 from .target import TargetModel
+
+
+#: Edge checks one planner call of the selection may make: 2 x the shared planner's default,
+#: with `max_failed_plans` = 3 instead of 6, so a field's failed calls spend the same 120,000
+#: checks at most. On the level-3 scenes 12 and 19 of seed 0 every one of the 12 calls of
+#: 20,000 checks failed (`NO_PATH`) while the first goal group was reached with 20,762 and
+#: 32,133 checks (`benchmarks/diag_select_failures.py`): a narrow way out of the cabinet
+#: takes more than one short search. 60,000 x 2 selected them too, but lost level 2 scene 3,
+#: whose grasp main reaches only with its third goal group (docs/grasping_log.md, branch gmod).
+SELECT_MAX_CHECKS = 2 * DEFAULT_MAX_CHECKS
 
 
 class Rejection(Enum):
@@ -107,9 +117,9 @@ class GraspSelectConfig:
     field_upsample: int = 2
     plan_margin: float = 0.005
     exact_fallback: bool = True
-    max_failed_plans: int | None = 6
+    max_failed_plans: int | None = 3
     candidates: CandidateConfig = field(default_factory=CandidateConfig)
-    planner: PlannerConfig = field(default_factory=PlannerConfig)
+    planner: PlannerConfig = field(default_factory=lambda: PlannerConfig(max_checks=SELECT_MAX_CHECKS))
 
     def __post_init__(self) -> None:
         if not 0.0 < self.max_approach_angle <= math.pi:
