@@ -6,6 +6,7 @@ each scene gives DIR/L{level}_{index}.pkl (the harness stops at the selection)."
 from __future__ import annotations
 
 import argparse
+import glob
 import os
 import pickle
 import sys
@@ -14,6 +15,18 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 
 from compass_manip.sim.certify import certified_scene
 from diag_hand_rejections import capture, scene_arguments
+
+
+def read_captures(directory: str, only: str | None = None):
+    """Yield (level, index, box) for each DIR/L{level}_{index}.pkl in name order; only: a
+    comma-separated list of L:I pairs to keep (None: all)."""
+    keep = None if not only else set(only.split(","))
+    for path in sorted(glob.glob(os.path.join(directory, "L*_*.pkl"))):
+        level, index = (int(x) for x in os.path.basename(path)[1:-4].split("_"))
+        if keep is not None and f"{level}:{index}" not in keep:
+            continue
+        with open(path, "rb") as f:
+            yield level, index, pickle.load(f)
 
 
 def main() -> int:

@@ -25,11 +25,9 @@ Prints one JSON line per scene. Run:
 from __future__ import annotations
 
 import argparse
-import glob
 import json
 import math
 import os
-import pickle
 import sys
 
 os.environ.setdefault("MUJOCO_GL", "egl")
@@ -37,6 +35,7 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 import mujoco
 import numpy as np
 
+from capture_select_inputs import read_captures
 from compass_manip.grasp.quality import graspnet_score, required_mu
 from compass_manip.grasp.select import select_grasp
 from compass_manip.motion.primitives import PrimitiveSet
@@ -215,12 +214,7 @@ def main() -> int:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--only", default=None, help="comma-separated L:I pairs")
     args = ap.parse_args()
-    for path in sorted(glob.glob(os.path.join(args.dir, "L*_*.pkl"))):
-        level, index = (int(x) for x in os.path.basename(path)[1:-4].split("_"))
-        if args.only and f"{level}:{index}" not in args.only.split(","):
-            continue
-        with open(path, "rb") as f:
-            box = pickle.load(f)
+    for level, index, box in read_captures(args.dir, args.only):
         scene = certified_scene(level, index, args.seed).scene
         world = World(scene)
         spheres = panda_sphere_model(world.robot)

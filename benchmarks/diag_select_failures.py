@@ -27,11 +27,9 @@ from __future__ import annotations
 import argparse
 import copy
 import dataclasses
-import glob
 import json
 import math
 import os
-import pickle
 import sys
 from collections import Counter
 
@@ -39,6 +37,7 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 
 import numpy as np
 
+from capture_select_inputs import read_captures
 from compass_manip.grasp import select as select_mod
 from compass_manip.grasp.candidates import AntipodalProposer, propose_in_cone
 from compass_manip.grasp.checks import (GraspChecks, first_clear, hand_clear, lift_steps, offset_pose,
@@ -245,12 +244,7 @@ def main() -> int:
     ap.add_argument("--only", default=None, help="comma-separated L:I pairs")
     ap.add_argument("--best", type=int, default=6, help="feasible-in-truth candidates detailed per scene")
     args = ap.parse_args()
-    for path in sorted(glob.glob(os.path.join(args.dir, "L*_*.pkl"))):
-        level, index = (int(x) for x in os.path.basename(path)[1:-4].split("_"))
-        if args.only and f"{level}:{index}" not in args.only.split(","):
-            continue
-        with open(path, "rb") as f:
-            box = pickle.load(f)
+    for level, index, box in read_captures(args.dir, args.only):
         if "target" not in box:
             print(json.dumps({"level": level, "index": index, "error": "no selection reached"}), flush=True)
             continue

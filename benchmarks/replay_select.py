@@ -9,10 +9,8 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import glob
 import json
 import os
-import pickle
 import sys
 import time
 
@@ -20,6 +18,7 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 
 import numpy as np
 
+from capture_select_inputs import read_captures
 from compass_manip.grasp.select import select_grasp
 from compass_manip.motion.planner import PlannerConfig  # noqa: F401 (for --set planner=...)
 from compass_manip.motion.timing import densify
@@ -39,12 +38,7 @@ def main() -> int:
     args = ap.parse_args()
     over = {k: eval(v) for k, v in (s.split("=", 1) for s in args.set)}
     n_ok = 0
-    for path in sorted(glob.glob(os.path.join(args.dir, "L*_*.pkl"))):
-        level, index = (int(x) for x in os.path.basename(path)[1:-4].split("_"))
-        if args.only and f"{level}:{index}" not in args.only.split(","):
-            continue
-        with open(path, "rb") as f:
-            box = pickle.load(f)
+    for level, index, box in read_captures(args.dir, args.only):
         if "target" not in box:
             print(json.dumps({"level": level, "index": index, "error": "no selection reached"}))
             continue
