@@ -93,7 +93,12 @@ class GraspTrialConfig:
     plan_via_home: when no path to the pre-grasps plans directly, the selection tries one via
     the home posture (`select_grasp(q_via=...)`); near_body_halo [m]: the near-body
     assumption leaves out unknown voxels within this L1 distance of a voxel seen occupied,
-    as the method's own rule does (`WorldModelConfig.obstacle_halo`; 0: off). The defaults
+    as the method's own rule does (`WorldModelConfig.obstacle_halo`; 0: off); near_body_yaw
+    [rad]: the near-body volume is swept with joint 1 within this of home's (1.2: the volume
+    used since the assumption exists; 0.6 kept the elbow off an unseen lateral base wall on
+    seed 5151 level 3 scene 2 but grasped 3/20 instead of 10/20 on seeds 101 + 2026: the
+    grasps need that space too; docs/grasping_log.md, "The near field the arm needs is never
+    seen"). The defaults
     (since 2026-11-23): the grasp map with its fine map, 20 INSPECT views and an 8 cm halo,
     with `method_swept` (`benchmarks/trial_variants.py`' `grasp_inspect_halo` before): end to
     end on levels 1 and 3, scenes 0-4, 9/20 over seeds 101 and 2026 with 1 collision trial
