@@ -28,6 +28,9 @@
 * near_yaw06 / near_yaw08: the defaults with the near-body volume swept with joint 1 within
   +-0.6 / +-0.8 rad of home's (`GraspTrialConfig.near_body_yaw`; default 1.2).
 * scan_assumed: the defaults with the trial's near-field scan before INSPECT (8 views).
+* no_scan: the defaults with the scan off (the default again since 2026-11-24, kept so the
+  comparison can be re-run whatever the default).
+* inspect_groups: the defaults with up to 3 groups of INSPECT views planned per step.
 """
 from __future__ import annotations
 
@@ -234,3 +237,12 @@ def inspect_groups_config() -> TrialConfig:
 
 def inspect_groups(spec) -> tuple[dict, dict]:
     return _run(spec, inspect_groups_config())
+
+
+def no_scan_config() -> TrialConfig:
+    """The defaults without the grasp stage's near-field scan (the default until 2026-11-24)."""
+    return TrialConfig(grasp=replace(GraspTrialConfig(), scan=TrialScanConfig(max_views=0)))
+
+
+def no_scan(spec) -> tuple[dict, dict]:
+    return _run(spec, no_scan_config())

@@ -83,13 +83,12 @@ class GraspTrialConfig:
     (`trial.grasp_map`) instead of the method's (2 cm for the exploration methods); with it,
     fine_map: the grasp map's frames integrated again at 5 mm within fine_margin [m] of the
     target's points for the hand's checks (as in the grasp-only harness); scan: the
-    near-field scan before INSPECT (`trial.grasp_scan`, on the grasp map; max_views=0: off;
-    up to 8 views by default since 2026-11-24: with the near-body assumption kept and the
-    selection's budget of branch gmod, end to end on levels 1-4 of the fresh seed 5151 it
-    grasped 8/20 against 2/20 before, on seeds 101 + 2026 levels 1 + 3 13/20 against 10/20;
-    one collision trial in either configuration's 40, a different trial each time: the
-    near-body assumption's risk, which the scan does not remove, as it does not see the
-    lateral base walls either; docs/grasping_log.md, "The trial's near-field scan by default");
+    near-field scan before INSPECT (`trial.grasp_scan`, on the grasp map; max_views=0, the
+    default: off; `TrialScanConfig()`, up to 8 views, with the near-body assumption kept:
+    end to end it grasps more (seeds 5151 levels 1-4, 101 + 2026 levels 1 + 3, 7777 level 3:
+    26/50 against 16/50 without it) but collides more (5 collision trials against 2, 4 of
+    them on seed 7777's level 3: the elbow on unseen lateral base walls, which the scan does
+    not see either), so it stays off; docs/grasping_log.md, "The trial's near-field scan");
     plan_via_home: when no path to the pre-grasps plans directly, the selection tries one via
     the home posture (`select_grasp(q_via=...)`); near_body_halo [m]: the near-body
     assumption leaves out unknown voxels within this L1 distance of a voxel seen occupied,
@@ -137,7 +136,7 @@ class GraspTrialConfig:
     grasp_map: bool = True
     fine_map: bool = True
     fine_margin: float = 0.2
-    scan: TrialScanConfig = field(default_factory=TrialScanConfig)
+    scan: TrialScanConfig = field(default_factory=lambda: TrialScanConfig(max_views=0))
     plan_via_home: bool = False
     outside_free: bool = False
     near_body_halo: float = 0.08
