@@ -17,6 +17,15 @@ from compass_manip.sim.certify import certified_scene
 from diag_hand_rejections import capture, scene_arguments
 
 
+def capture_arguments(ap: argparse.ArgumentParser) -> argparse.ArgumentParser:
+    """--dir (the captures' folder), --seed (the scene set's) and --only (L:I pairs) of the
+    scripts that read captures (`read_captures`)."""
+    ap.add_argument("--dir", required=True)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--only", default=None, help="comma-separated L:I pairs")
+    return ap
+
+
 def read_captures(directory: str, only: str | None = None):
     """Yield (level, index, box) for each DIR/L{level}_{index}.pkl in name order; only: a
     comma-separated list of L:I pairs to keep (None: all)."""

@@ -35,7 +35,7 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 import mujoco
 import numpy as np
 
-from capture_select_inputs import read_captures
+from capture_select_inputs import capture_arguments, read_captures
 from compass_manip.grasp.quality import graspnet_score, required_mu
 from compass_manip.grasp.select import select_grasp
 from compass_manip.motion.primitives import PrimitiveSet
@@ -209,10 +209,7 @@ def physics(scene, sel, q_start) -> dict:
 
 
 def main() -> int:
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--dir", required=True)
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--only", default=None, help="comma-separated L:I pairs")
+    ap = capture_arguments(argparse.ArgumentParser())
     args = ap.parse_args()
     for level, index, box in read_captures(args.dir, args.only):
         scene = certified_scene(level, index, args.seed).scene

@@ -37,7 +37,7 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 
 import numpy as np
 
-from capture_select_inputs import read_captures
+from capture_select_inputs import capture_arguments, read_captures
 from compass_manip.grasp import select as select_mod
 from compass_manip.grasp.candidates import AntipodalProposer, propose_in_cone
 from compass_manip.grasp.checks import (GraspChecks, first_clear, hand_clear, lift_steps, offset_pose,
@@ -238,10 +238,7 @@ def diagnose(level: int, index: int, seed: int, box: dict, n_best: int) -> dict:
 
 
 def main() -> int:
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--dir", required=True)
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--only", default=None, help="comma-separated L:I pairs")
+    ap = capture_arguments(argparse.ArgumentParser())
     ap.add_argument("--best", type=int, default=6, help="feasible-in-truth candidates detailed per scene")
     args = ap.parse_args()
     for level, index, box in read_captures(args.dir, args.only):

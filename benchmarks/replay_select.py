@@ -18,7 +18,7 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 
 import numpy as np
 
-from capture_select_inputs import read_captures
+from capture_select_inputs import capture_arguments, read_captures
 from compass_manip.grasp.select import select_grasp
 from compass_manip.motion.planner import PlannerConfig  # noqa: F401 (for --set planner=...)
 from compass_manip.motion.timing import densify
@@ -29,11 +29,8 @@ from compass_manip.sim.certify import certified_scene
 
 
 def main() -> int:
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--dir", required=True)
-    ap.add_argument("--seed", type=int, default=0)
+    ap = capture_arguments(argparse.ArgumentParser())
     ap.add_argument("--set", nargs="*", default=[], help="GraspSelectConfig field=value (python literal)")
-    ap.add_argument("--only", default=None)
     ap.add_argument("--via-home", action="store_true", help="q_via = the home posture")
     args = ap.parse_args()
     over = {k: eval(v) for k, v in (s.split("=", 1) for s in args.set)}

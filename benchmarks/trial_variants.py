@@ -25,8 +25,8 @@
   assumption took as free (`VerifyConfig(assumed_only=True, refuse=False)`, branch e2e4).
 * grasp_look_outward: as grasp_look_assumed, a third of the look directions away from the base.
 * find_only: no GRASP state (the trial ends at FOUND), as `compass run --find-only`.
-* near_yaw06 / near_yaw08: the defaults with the near-body volume swept with joint 1 within
-  +-0.6 / +-0.8 rad of home's (`GraspTrialConfig.near_body_yaw`; default 1.2).
+* near_yaw06: the defaults with the near-body volume swept with joint 1 within +-0.6 rad of
+  home's (`GraspTrialConfig.near_body_yaw`; default 1.2).
 * scan_assumed: the defaults with the trial's near-field scan before INSPECT (8 views).
 * no_scan: the defaults with the scan off (the default again since 2026-11-24, kept so the
   comparison can be re-run whatever the default).
@@ -197,25 +197,13 @@ def grasp_look_assumed(spec) -> tuple[dict, dict]:
     return _run(spec, grasp_look_assumed_config())
 
 
-def near_yaw_config(yaw: float) -> TrialConfig:
-    """The defaults with the near-body assumption's joint-1 range narrowed to +-yaw [rad]."""
-    return TrialConfig(grasp=replace(GraspTrialConfig(), near_body_yaw=yaw))
+def near_yaw06_config() -> TrialConfig:
+    """The defaults with the near-body assumption's joint-1 range narrowed to +-0.6 rad."""
+    return TrialConfig(grasp=replace(GraspTrialConfig(), near_body_yaw=0.6))
 
 
 def near_yaw06(spec) -> tuple[dict, dict]:
-    return _run(spec, near_yaw_config(0.6))
-
-
-def near_yaw08(spec) -> tuple[dict, dict]:
-    return _run(spec, near_yaw_config(0.8))
-
-
-def near_yaw06_config() -> TrialConfig:
-    return near_yaw_config(0.6)
-
-
-def near_yaw08_config() -> TrialConfig:
-    return near_yaw_config(0.8)
+    return _run(spec, near_yaw06_config())
 
 
 def scan_assumed_config() -> TrialConfig:
