@@ -25,12 +25,16 @@
   assumption took as free (`VerifyConfig(assumed_only=True, refuse=False)`, branch e2e4).
 * grasp_look_outward: as grasp_look_assumed, a third of the look directions away from the base.
 * find_only: no GRASP state (the trial ends at FOUND), as `compass run --find-only`.
-* near_yaw06: the defaults with the near-body volume swept with joint 1 within +-0.6 rad of
-  home's (`GraspTrialConfig.near_body_yaw`; default 1.2).
-* scan_assumed: the defaults with the trial's near-field scan before INSPECT (8 views).
-* no_scan: the defaults with the scan off (the default again since 2026-11-24, kept so the
-  comparison can be re-run whatever the default).
-* inspect_groups: the defaults with up to 3 groups of INSPECT views planned per step.
+* former_defaults: the grasp stage's defaults until 2026-11-24's second session: no near-field
+  scan, the near-body volume swept with joint 1 within +-1.2 rad of home's. The variants below
+  that say "the former defaults" start from it, so their records stay reproducible.
+* near_yaw06: the former defaults with the near-body volume narrowed to +-0.6 rad
+  (`GraspTrialConfig.near_body_yaw`), no scan.
+* scan_assumed: the former defaults with the trial's near-field scan before INSPECT (8 views).
+* no_scan: the former defaults (the scan off), under its earlier name.
+* inspect_groups: the former defaults with up to 3 groups of INSPECT views planned per step.
+* scan_yaw06: the scan and the +-0.6 rad volume together: the defaults since 2026-11-24's
+  second session (`TrialConfig()`), kept so the comparison can be re-run whatever the default.
 """
 from __future__ import annotations
 
@@ -50,20 +54,22 @@ def _run(spec, config: TrialConfig) -> tuple[dict, dict]:
 
 
 def grasp_map_no_near_body_config() -> TrialConfig:
-    return TrialConfig(grasp=GraspTrialConfig(grasp_map=True, near_body_free=False, fine_map=False))
+    return TrialConfig(grasp=GraspTrialConfig(scan=TrialScanConfig(max_views=0), near_body_yaw=1.2,
+                                              grasp_map=True, near_body_free=False, fine_map=False))
 
 
 def grasp_map_fine_config() -> TrialConfig:
-    return TrialConfig(grasp=GraspTrialConfig(grasp_map=True, near_body_free=False, fine_map=True))
+    return TrialConfig(grasp=GraspTrialConfig(scan=TrialScanConfig(max_views=0), near_body_yaw=1.2,
+                                              grasp_map=True, near_body_free=False, fine_map=True))
 
 
 def grasp_scan_config() -> TrialConfig:
-    return TrialConfig(grasp=GraspTrialConfig(grasp_map=True, near_body_free=False, fine_map=True,
+    return TrialConfig(grasp=GraspTrialConfig(near_body_yaw=1.2, grasp_map=True, near_body_free=False, fine_map=True,
                                               scan=TrialScanConfig()))
 
 
 def grasp_scan_via_config() -> TrialConfig:
-    return TrialConfig(grasp=GraspTrialConfig(grasp_map=True, near_body_free=False, fine_map=True,
+    return TrialConfig(grasp=GraspTrialConfig(near_body_yaw=1.2, grasp_map=True, near_body_free=False, fine_map=True,
                                               scan=TrialScanConfig(), plan_via_home=True))
 
 
@@ -86,7 +92,7 @@ def grasp_scan_via(spec) -> tuple[dict, dict]:
 def grasp_scan_more_config() -> TrialConfig:
     """grasp_scan_via with 150 candidates checked by IK (`GraspSelectConfig.max_checked`; the default was 60
     when this variant was measured, 400 since branch gmod, so today it checks fewer than the default)."""
-    return TrialConfig(grasp=GraspTrialConfig(grasp_map=True, near_body_free=False, fine_map=True,
+    return TrialConfig(grasp=GraspTrialConfig(near_body_yaw=1.2, grasp_map=True, near_body_free=False, fine_map=True,
                                               scan=TrialScanConfig(), plan_via_home=True,
                                               select=GraspSelectConfig(max_checked=150)))
 
@@ -97,7 +103,7 @@ def grasp_scan_more(spec) -> tuple[dict, dict]:
 
 def grasp_scan_long_config() -> TrialConfig:
     """grasp_scan_more with up to 16 scan views and INSPECT views taken from 0.5 % of the hypotheses' weight."""
-    return TrialConfig(grasp=GraspTrialConfig(grasp_map=True, near_body_free=False, fine_map=True,
+    return TrialConfig(grasp=GraspTrialConfig(near_body_yaw=1.2, grasp_map=True, near_body_free=False, fine_map=True,
                                               scan=TrialScanConfig(max_views=16), plan_via_home=True,
                                               select=GraspSelectConfig(max_checked=150),
                                               inspect=InspectConfig(min_fraction=0.005)))
@@ -118,7 +124,8 @@ def find_only(spec) -> tuple[dict, dict]:
 def grasp_inspect_halo_config() -> TrialConfig:
     """The grasp map with its 5 mm fine map, up to 20 grasp-aware INSPECT views and the
     near-body assumption kept 8 cm from anything seen occupied (`near_body_halo`)."""
-    return TrialConfig(grasp=GraspTrialConfig(grasp_map=True, fine_map=True, near_body_halo=0.08,
+    return TrialConfig(grasp=GraspTrialConfig(scan=TrialScanConfig(max_views=0), near_body_yaw=1.2,
+                                              grasp_map=True, fine_map=True, near_body_halo=0.08,
                                               inspect=InspectConfig(n_views=20)))
 
 
@@ -130,7 +137,8 @@ def grasp_inspect_own_config() -> TrialConfig:
     """The grasp map with its 5 mm fine map and up to 20 grasp-aware INSPECT views, with no
     assumption about unknown space beyond the method's own (its swept space and start shell,
     `GraspTrialConfig.method_swept`): no near-body assumption."""
-    return TrialConfig(grasp=GraspTrialConfig(grasp_map=True, fine_map=True, near_body_free=False,
+    return TrialConfig(grasp=GraspTrialConfig(scan=TrialScanConfig(max_views=0), near_body_yaw=1.2,
+                                              grasp_map=True, fine_map=True, near_body_free=False,
                                               inspect=InspectConfig(n_views=20)))
 
 
@@ -172,20 +180,20 @@ def grasp_look_outside_long(spec) -> tuple[dict, dict]:
 
 
 def grasp_look_assumed_config() -> TrialConfig:
-    """The defaults, and a best-effort look at the space the chosen manoeuvre crosses on the
+    """The former defaults, and a best-effort look at the space the chosen manoeuvre crosses on the
     near-body assumption before executing it (`VerifyConfig(assumed_only=True, refuse=False)`):
     a look that shows a blocker sends the stage to the next candidate; voxels no view sees are
     crossed as without looking. A look view must see at least 50 of the voxels (estimated,
     `VerifyConfig.min_seen`): on seed 101 level 3 scene 4 the first look saw 1100 of 2884, the
     next five 3-85 each."""
-    return TrialConfig(grasp=replace(TrialConfig().grasp, verify=VerifyConfig(
+    return TrialConfig(grasp=replace(former_grasp(), verify=VerifyConfig(
         assumed_only=True, refuse=False, strict_first=False, min_seen=50)))
 
 
 def grasp_look_outward_config() -> TrialConfig:
     """grasp_look_assumed with a third of the look directions pointing away from the base
     (`VerifyConfig.outward`): views of the space beside the body from between it and the base."""
-    return TrialConfig(grasp=replace(TrialConfig().grasp, verify=VerifyConfig(
+    return TrialConfig(grasp=replace(former_grasp(), verify=VerifyConfig(
         assumed_only=True, refuse=False, strict_first=False, min_seen=50, outward=True)))
 
 
@@ -197,9 +205,22 @@ def grasp_look_assumed(spec) -> tuple[dict, dict]:
     return _run(spec, grasp_look_assumed_config())
 
 
+def former_grasp() -> GraspTrialConfig:
+    """The grasp stage's defaults until 2026-11-24's second session: scan off, near-body yaw 1.2 rad."""
+    return replace(GraspTrialConfig(), scan=TrialScanConfig(max_views=0), near_body_yaw=1.2)
+
+
+def former_defaults_config() -> TrialConfig:
+    return TrialConfig(grasp=former_grasp())
+
+
+def former_defaults(spec) -> tuple[dict, dict]:
+    return _run(spec, former_defaults_config())
+
+
 def near_yaw06_config() -> TrialConfig:
-    """The defaults with the near-body assumption's joint-1 range narrowed to +-0.6 rad."""
-    return TrialConfig(grasp=replace(GraspTrialConfig(), near_body_yaw=0.6))
+    """The former defaults with the near-body assumption's joint-1 range narrowed to +-0.6 rad."""
+    return TrialConfig(grasp=replace(former_grasp(), near_body_yaw=0.6))
 
 
 def near_yaw06(spec) -> tuple[dict, dict]:
@@ -207,10 +228,10 @@ def near_yaw06(spec) -> tuple[dict, dict]:
 
 
 def scan_assumed_config() -> TrialConfig:
-    """The defaults (the near-body assumption included) with the trial's near-field scan first
+    """The former defaults (the near-body assumption included) with the trial's near-field scan first
     (`TrialScanConfig()`, up to 8 views of the unknown box around the base): what the scan sees
     occupied, the assumption (kept near_body_halo away) no longer takes as free."""
-    return TrialConfig(grasp=replace(GraspTrialConfig(), scan=TrialScanConfig()))
+    return TrialConfig(grasp=replace(former_grasp(), scan=TrialScanConfig()))
 
 
 def scan_assumed(spec) -> tuple[dict, dict]:
@@ -218,8 +239,8 @@ def scan_assumed(spec) -> tuple[dict, dict]:
 
 
 def inspect_groups_config() -> TrialConfig:
-    """The defaults with INSPECT trying up to 3 groups of views per step (`InspectConfig.plan_groups`)."""
-    g = GraspTrialConfig()
+    """The former defaults with INSPECT trying up to 3 groups of views per step (`InspectConfig.plan_groups`)."""
+    g = former_grasp()
     return TrialConfig(grasp=replace(g, inspect=replace(g.inspect, plan_groups=3)))
 
 
@@ -228,9 +249,20 @@ def inspect_groups(spec) -> tuple[dict, dict]:
 
 
 def no_scan_config() -> TrialConfig:
-    """The defaults without the grasp stage's near-field scan (the default until 2026-11-24)."""
-    return TrialConfig(grasp=replace(GraspTrialConfig(), scan=TrialScanConfig(max_views=0)))
+    """The former defaults (the scan off), under its earlier name."""
+    return former_defaults_config()
 
 
 def no_scan(spec) -> tuple[dict, dict]:
     return _run(spec, no_scan_config())
+
+
+def scan_yaw06_config() -> TrialConfig:
+    """The trial's near-field scan (`scan_assumed`) with the near-body assumption's joint-1 range
+    narrowed to +-0.6 rad (`near_yaw06`): the scan sees more, the assumption takes less. The
+    defaults since 2026-11-24's second session."""
+    return TrialConfig(grasp=replace(former_grasp(), scan=TrialScanConfig(), near_body_yaw=0.6))
+
+
+def scan_yaw06(spec) -> tuple[dict, dict]:
+    return _run(spec, scan_yaw06_config())

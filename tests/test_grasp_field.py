@@ -221,3 +221,27 @@ def test_near_body_yaw_narrows_the_assumption_to_the_arm_facing_home():
             GraspTrialConfig(near_body_yaw=bad)
     with pytest.raises(CompassInputError, match="yaw"):
         near_body_spheres(spheres, home, 3.5)
+
+
+def test_trial_defaults_scan_and_take_only_the_narrow_near_body_volume_as_free():
+    """The trial's grasp stage by default runs the near-field scan and takes as free only the
+    near-body volume of joint 1 within +-0.6 rad of home's (measured: as many grasps as the
+    former defaults and none of their collision trials, docs/grasping_log.md): on an all-unknown
+    map a voxel beside the base at elbow height, where level-3 lateral walls stand, is not
+    assumed free, one ahead of the base is; the former 1.2 rad assumed both."""
+    from dataclasses import replace
+    from compass_manip.robot.model import RobotConfig
+    from compass_manip.trial.config import GraspTrialConfig
+    from compass_manip.trial.grasp_stage import assumed_unknown_free
+
+    config = GraspTrialConfig()
+    assert config.scan.max_views > 0 and config.near_body_free
+    spheres = panda_sphere_model()
+    home = np.asarray(RobotConfig().q_home)
+    occ = OccupancyMap(MapConfig(box_min=(-0.64, -0.72, -0.08), box_max=(0.96, 0.72, 1.2), resolution=0.04))
+    side = tuple(occ.world_to_voxel(np.array([[0.02, -0.26, 0.56]]))[0])
+    front = tuple(occ.world_to_voxel(np.array([[0.30, 0.0, 0.60]]))[0])
+    now = assumed_unknown_free(occ, config, spheres, home, None, None)
+    former = assumed_unknown_free(occ, replace(config, near_body_yaw=1.2), spheres, home, None, None)
+    assert now[front] and not now[side]
+    assert former[front] and former[side]

@@ -83,21 +83,24 @@ class GraspTrialConfig:
     (`trial.grasp_map`) instead of the method's (2 cm for the exploration methods); with it,
     fine_map: the grasp map's frames integrated again at 5 mm within fine_margin [m] of the
     target's points for the hand's checks (as in the grasp-only harness); scan: the
-    near-field scan before INSPECT (`trial.grasp_scan`, on the grasp map; max_views=0, the
-    default: off; `TrialScanConfig()`, up to 8 views, with the near-body assumption kept:
-    end to end it grasps more (seeds 5151 levels 1-4, 101 + 2026 levels 1 + 3, 7777 level 3:
-    26/50 against 16/50 without it) but collides more (5 collision trials against 2, 4 of
-    them on seed 7777's level 3: the elbow on unseen lateral base walls, which the scan does
-    not see either), so it stays off; docs/grasping_log.md, "The trial's near-field scan");
+    near-field scan before INSPECT (`trial.grasp_scan`, on the grasp map; `TrialScanConfig()`,
+    up to 8 views, the default since 2026-11-24's second session, together with near_body_yaw
+    0.6: `max_views=0` turns it off). With the wide near-body volume (1.2 rad) the scan grasped
+    more (26/50 against 16/50) but collided more (5 collision trials against 2: the elbow on
+    unseen lateral base walls, which no scan sees); with the narrow one it grasps as many as
+    the former defaults (scan off, 1.2 rad) with no collision: 19/50 and 0 collision trials
+    against 19/50 and 3 over seeds 101 + 2026 (levels 1 + 3, scenes 0-4), 5151 (levels 1-2,
+    scenes 0-4), 7777 and 4242 (level 3, scenes 0-9; 4242 fresh for both); docs/grasping_log.md,
+    "Beside the base: no view, and the elbow must go there");
     plan_via_home: when no path to the pre-grasps plans directly, the selection tries one via
     the home posture (`select_grasp(q_via=...)`); near_body_halo [m]: the near-body
     assumption leaves out unknown voxels within this L1 distance of a voxel seen occupied,
     as the method's own rule does (`WorldModelConfig.obstacle_halo`; 0: off); near_body_yaw
-    [rad]: the near-body volume is swept with joint 1 within this of home's (1.2: the volume
-    used since the assumption exists; 0.6 kept the elbow off an unseen lateral base wall on
-    seed 5151 level 3 scene 2 but grasped 3/20 instead of 10/20 on seeds 101 + 2026: the
-    grasps need that space too; docs/grasping_log.md, "The near field the arm needs is never
-    seen"). The defaults
+    [rad]: the near-body volume is swept with joint 1 within this of home's (0.6 by default
+    since 2026-11-24's second session, with the scan; 1.2 before: alone, without the scan,
+    0.6 kept the elbow off an unseen lateral base wall on seed 5151 level 3 scene 2 but
+    grasped 3/20 instead of 10/20 on seeds 101 + 2026; docs/grasping_log.md, "The near field
+    the arm needs is never seen"). The defaults
     (since 2026-11-23): the grasp map with its fine map, 20 INSPECT views and an 8 cm halo,
     with `method_swept` (`benchmarks/trial_variants.py`' `grasp_inspect_halo` before): end to
     end on levels 1 and 3, scenes 0-4, 9/20 over seeds 101 and 2026 with 1 collision trial
@@ -136,11 +139,11 @@ class GraspTrialConfig:
     grasp_map: bool = True
     fine_map: bool = True
     fine_margin: float = 0.2
-    scan: TrialScanConfig = field(default_factory=lambda: TrialScanConfig(max_views=0))
+    scan: TrialScanConfig = field(default_factory=TrialScanConfig)
     plan_via_home: bool = False
     outside_free: bool = False
     near_body_halo: float = 0.08
-    near_body_yaw: float = 1.2
+    near_body_yaw: float = 0.6
     verify: VerifyConfig | None = None
     method_swept: bool = True
 
