@@ -30,11 +30,10 @@ from compass_manip.robot.ik import PandaIK, ik_look_at  # noqa: E402
 from compass_manip.robot.model import RobotConfig  # noqa: E402
 from compass_manip.robot.spheres import Q_HOME, panda_sphere_model  # noqa: E402
 from compass_manip.sim.certify import certified_scene  # noqa: E402
-from compass_manip.sim.groundtruth import inside_primitive  # noqa: E402
 from compass_manip.sim.world import World  # noqa: E402
 from compass_manip.trial.config import TrialConfig  # noqa: E402
 from compass_manip.trial.inspect import frustum_mask  # noqa: E402
-from compass_manip.trial.runner import make_method  # noqa: E402
+from diag_nfa_near_field import method_at_home  # noqa: E402
 
 LOOK_POINTS = ((0.05, 0.25, 0.5), (0.2, 0.25, 0.45), (-0.05, 0.22, 0.6))
 
@@ -73,11 +72,7 @@ def main() -> int:
     scene = certified_scene(args.level, args.scene, args.seed).scene
     world, cfg = World(scene), TrialConfig()
     q0 = np.asarray(world.robot.q_home, float)
-    method = make_method("compass", scene.task(cfg.time_limit_s), cfg.method, np.random.default_rng(1), q0,
-                         world.camera.K)
-    prims = [p for p in scene.static_primitives() if p.name.startswith("base")]
-    grid = np.mgrid[-0.5:0.7:0.01, -0.6:0.6:0.01, 0:1.2:0.01].reshape(3, -1).T
-    points = {p.name: grid[inside_primitive(p, grid)][::7] for p in prims}
+    method, prims, points = method_at_home(world, scene, cfg)
     method.observe(world.render(q0, rgb=False, seg=False).observation())
     q = q0
     for _ in range(cfg.method.nfa.max_views + 1):

@@ -35,6 +35,17 @@ from compass_manip.trial.inspect import frustum_mask  # noqa: E402
 from compass_manip.trial.runner import make_method  # noqa: E402
 
 
+def method_at_home(world, scene, cfg: TrialConfig):
+    """(COMPASS's method as the trial builds it at home, the scene's base primitives, and per
+    primitive every 7th point of a 1 cm grid inside it (GROUND TRUTH))."""
+    q0 = np.asarray(world.robot.q_home, float)
+    method = make_method("compass", scene.task(cfg.time_limit_s), cfg.method, np.random.default_rng(1), q0,
+                         world.camera.K)
+    prims = [p for p in scene.static_primitives() if p.name.startswith("base")]
+    grid = np.mgrid[-0.5:0.7:0.01, -0.6:0.6:0.01, 0:1.2:0.01].reshape(3, -1).T
+    return method, prims, {p.name: grid[inside_primitive(p, grid)][::7] for p in prims}
+
+
 def main() -> int:
     ap = argparse.ArgumentParser()
     ap.add_argument("--seed", type=int, default=5151)
@@ -63,11 +74,7 @@ def main() -> int:
 
     nfa_mod.safe_box_map = gain_box
     q0 = np.asarray(world.robot.q_home, float)
-    method = make_method("compass", scene.task(cfg.time_limit_s), cfg.method, np.random.default_rng(1), q0,
-                         world.camera.K)
-    prims = [p for p in scene.static_primitives() if p.name.startswith("base")]
-    grid = np.mgrid[-0.5:0.7:0.01, -0.6:0.6:0.01, 0:1.2:0.01].reshape(3, -1).T
-    points = {p.name: grid[inside_primitive(p, grid)][::7] for p in prims}
+    method, prims, points = method_at_home(world, scene, cfg)
 
     def seen() -> str:
         occ = method.occupancy
