@@ -63,6 +63,26 @@ def test_sphere_rasteriser_on_a_corner_of_a_large_grid_equals_brute_force():
     assert m.all()
 
 
+def test_sphere_rasteriser_whole_block_skip_and_fill_equal_brute_force():
+    """Spheres of 2-30 voxels' radius (blocks of 4^3 voxels skipped or cleared whole), an
+    odd grid origin and shape, centres beyond the grid's faces and radii exactly at a voxel
+    centre's distance (the test's <= decides): the same voxels as the brute force."""
+    rng = np.random.default_rng(21)
+    shape, gm, res = (37, 42, 29), np.array([-0.6131, 0.2071, -0.0499]), 0.01
+    for trial in range(10):
+        n = int(rng.integers(2, 8))
+        c = gm + rng.uniform(-0.08, 1.0, (n, 3)) * np.array(shape) * res
+        r = rng.uniform(0.02, 0.3, n)
+        v = gm + (rng.integers(0, 20, 3) + 0.5) * res  # a voxel centre exactly on the surface
+        d = v - c[0]
+        r[0] = math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
+        m = np.ones(shape, bool)
+        m[rng.random(shape) < 0.1] = False
+        want = m & brute_force_clear(shape, gm, res, c, r)
+        _clear_spheres(m, gm, res, c, r)
+        assert np.array_equal(m, want), trial
+
+
 def test_robot_space_mask_incremental_equals_one_shot():
     from compass_manip.robot.model import Q_MAX, Q_MIN, RobotConfig
 
