@@ -458,7 +458,7 @@ def _clear_spheres(unsafe, grid_min, res, centers, radii):
                             dxy = dx * dx + dy * dy
                             if dxy > r2:
                                 continue
-                            for k in range(klo, khi + 1):  # `_in_sphere`'s test, term for term
+                            for k in range(klo, khi + 1):  # the brute force's test, term for term
                                 if unsafe[i, j, k] and dxy + dz2[k - klo] <= r2:
                                     unsafe[i, j, k] = False
                                     left[ib, jb, kb] -= 1
