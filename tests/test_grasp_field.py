@@ -63,6 +63,26 @@ def test_sphere_rasteriser_on_a_corner_of_a_large_grid_equals_brute_force():
     assert m.all()
 
 
+def test_sphere_rasteriser_whole_block_skip_and_fill_equal_brute_force():
+    """Spheres of 2-30 voxels' radius (blocks of 4^3 voxels skipped or cleared whole), an
+    odd grid origin and shape, centres beyond the grid's faces and radii exactly at a voxel
+    centre's distance (the test's <= decides): the same voxels as the brute force."""
+    rng = np.random.default_rng(21)
+    shape, gm, res = (37, 42, 29), np.array([-0.6131, 0.2071, -0.0499]), 0.01
+    for trial in range(10):
+        n = int(rng.integers(2, 8))
+        c = gm + rng.uniform(-0.08, 1.0, (n, 3)) * np.array(shape) * res
+        r = rng.uniform(0.02, 0.3, n)
+        v = gm + (rng.integers(0, 20, 3) + 0.5) * res  # a voxel centre exactly on the surface
+        d = v - c[0]
+        r[0] = math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
+        m = np.ones(shape, bool)
+        m[rng.random(shape) < 0.1] = False
+        want = m & brute_force_clear(shape, gm, res, c, r)
+        _clear_spheres(m, gm, res, c, r)
+        assert np.array_equal(m, want), trial
+
+
 def test_robot_space_mask_incremental_equals_one_shot():
     from compass_manip.robot.model import Q_MAX, Q_MIN, RobotConfig
 
@@ -123,6 +143,34 @@ def test_checked_field_is_sound_and_exact_inside():
     assert np.all(bound <= np.linalg.norm(gap, axis=2).min(axis=1) + 1e-6)
     with pytest.raises(CompassInputError, match="fine_unsafe"):
         checked_field(unsafe, np.zeros(3), res, a, b, u, np.zeros((3, 3, 3), bool))
+
+
+def test_composite_field_equals_its_formula_cell_by_cell():
+    """`field._compose` (row by row of the fine grid) against the module doc's formula in
+    numpy, bit for bit: v = max(D(C) - h_map + h_fine - |c - c_C|, 0) outside the inner
+    box, min(d_in, max(b + h_fine, v)) inside it (an inner box at the grid's faces too)."""
+    from compass_manip.grasp.field import _compose, coarse_distances
+    from compass_manip.mapping.distance import _distances
+    rng = np.random.default_rng(4)
+    res = 0.01
+    for shape, a, b, u in [((13, 11, 9), (3, 2, 1), (9, 8, 7), 2), ((10, 9, 12), (0, 4, 6), (10, 9, 12), 3),
+                           ((8, 8, 8), (2, 2, 2), (2, 5, 5), 2)]:
+        a, b = np.array(a), np.array(b)
+        coarse = coarse_distances(rng.random(shape) < 0.05, res)
+        fu = rng.random(tuple(u * (b - a))) < 0.03
+        d_in = _distances(fu, res / u) if fu.any() else np.full(fu.shape, np.inf, np.float32)
+        got = _compose(coarse, d_in, a * u, u, res)
+        fres, h_map, h_fine = res / u, 0.5 * math.sqrt(3.0) * res, 0.5 * math.sqrt(3.0) * res / u
+        off = (((np.arange(u) + 0.5) / u - 0.5) * res) ** 2
+        rad = np.sqrt(off[:, None, None] + off[None, :, None] + off[None, None, :])
+        base = upsample_mask(coarse.astype(np.float64), u) - h_map + h_fine
+        v = np.maximum(base - np.tile(rad, shape), 0.0)
+        sl = tuple(slice(u * a[k], u * b[k]) for k in range(3))
+        li, lj, lk = np.meshgrid(*[np.arange(n) for n in d_in.shape], indexing="ij")
+        bnd = np.minimum.reduce([li + 0.5, d_in.shape[0] - li - 0.5, lj + 0.5, d_in.shape[1] - lj - 0.5,
+                                 lk + 0.5, d_in.shape[2] - lk - 0.5]) * fres
+        v[sl] = np.minimum(d_in.astype(np.float64), np.maximum(bnd + h_fine, v[sl]))
+        assert np.array_equal(got.view(np.int32), v.astype(np.float32).view(np.int32))
 
 
 def test_fine_map_integration_hand_computed():

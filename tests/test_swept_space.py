@@ -107,3 +107,26 @@ def test_union_order_puts_large_spheres_first_drops_repeats_and_marks_the_same_u
         ref |= d[..., 0] * d[..., 0] + d[..., 1] * d[..., 1] + d[..., 2] * d[..., 2] <= rr * rr
     np.testing.assert_array_equal(fast, ref)
     assert len(union_order(np.zeros((0, 3)), np.zeros(0))) == 0
+
+
+def test_way_order_drops_only_repeats_of_the_configuration_before_and_marks_the_same_union():
+    from compass_manip.mapping.distance import _mark_ordered, way_order
+    rng = np.random.default_rng(8)
+    M, S = 12, 9
+    C = rng.uniform(-0.15, 0.15, (M, S, 3))
+    C[:, :3] = C[0, :3]  # three spheres that never move (the base)
+    C[5:8, 4] = C[4, 4]  # one that rests for three configurations
+    C[9, 5] = C[2, 5]  # a repeat of a configuration further back: kept (the union is the same)
+    r = rng.uniform(0.0, 0.08, S)
+    r[7] = r[8]  # a tie
+    k = way_order(C, r)
+    flat_r = np.tile(r, M)
+    assert len(np.unique(k)) == len(k) == M * S - 3 * (M - 1) - 3
+    assert np.all(np.diff(flat_r[k]) <= 0)  # largest first
+    assert not ({S + s for s in range(3)} & set(k.tolist())) and {0, 1, 2} <= set(k.tolist())
+    fast, ref = np.zeros((36, 32, 30), bool), np.zeros((36, 32, 30), bool)
+    gm = np.array([-0.18, -0.16, -0.15])
+    _mark_ordered(fast, gm, 0.01, C.reshape(-1, 3)[k], flat_r[k])
+    brute_force_mark(ref, gm, 0.01, C.reshape(-1, 3), flat_r)
+    np.testing.assert_array_equal(fast, ref)
+    assert ref.sum() > 1000

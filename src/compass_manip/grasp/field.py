@@ -141,6 +141,9 @@ def _raise_in_spheres(out, origin, res, centres, radii, h):
 
 @njit(cache=True, parallel=True)
 def _compose(coarse, d_in, ia, u, res):
+    """The composite field (module doc) of the map-grid distances coarse and the inner box's
+    exact distances d_in at fine index ia, written row by row of the fine grid (each fine
+    cell the same expression as cell by cell under each map voxel)."""
     nx, ny, nz = coarse.shape
     fres = res / u
     h_map = 0.5 * math.sqrt(3.0) * res
@@ -155,28 +158,27 @@ def _compose(coarse, d_in, ia, u, res):
                 rad[ti, tj, tk] = math.sqrt(off[ti] + off[tj] + off[tk])
     out = np.empty((nx * u, ny * u, nz * u), np.float32)
     mx, my, mz = d_in.shape
-    for ci in prange(nx):
-        for cj in range(ny):
+    for I in prange(nx * u):
+        ci, ti = I // u, I % u
+        li = I - ia[0]
+        for J in range(ny * u):
+            cj, tj = J // u, J % u
+            lj = J - ia[1]
+            inner = 0 <= li < mx and 0 <= lj < my  # the row crosses the inner box
             for ck in range(nz):
                 base = coarse[ci, cj, ck] - h_map + h_fine
-                near = (ci * u + u > ia[0] and ci * u < ia[0] + mx and cj * u + u > ia[1] and cj * u < ia[1] + my
-                        and ck * u + u > ia[2] and ck * u < ia[2] + mz)
-                for ti in range(u):
-                    I = ci * u + ti
-                    for tj in range(u):
-                        J = cj * u + tj
-                        for tk in range(u):
-                            K = ck * u + tk
-                            v = base - rad[ti, tj, tk]
-                            if v < 0.0:
-                                v = 0.0
-                            if near:
-                                li, lj, lk = I - ia[0], J - ia[1], K - ia[2]
-                                if 0 <= li < mx and 0 <= lj < my and 0 <= lk < mz:
-                                    bnd = min(li + 0.5, mx - li - 0.5, lj + 0.5, my - lj - 0.5,
-                                              lk + 0.5, mz - lk - 0.5) * fres
-                                    v = min(d_in[li, lj, lk], max(bnd + h_fine, v))
-                            out[I, J, K] = v
+                for tk in range(u):
+                    K = ck * u + tk
+                    v = base - rad[ti, tj, tk]
+                    if v < 0.0:
+                        v = 0.0
+                    if inner:
+                        lk = K - ia[2]
+                        if 0 <= lk < mz:
+                            bnd = min(li + 0.5, mx - li - 0.5, lj + 0.5, my - lj - 0.5,
+                                      lk + 0.5, mz - lk - 0.5) * fres
+                            v = min(d_in[li, lj, lk], max(bnd + h_fine, v))
+                    out[I, J, K] = v
     return out
 
 

@@ -78,18 +78,25 @@ def mark_in_spheres(mask: np.ndarray, grid_min: np.ndarray, resolution: float, c
     """Set True, in place, every voxel of mask (a bool grid with origin grid_min (3,) [m] and
     voxel edge resolution [m]) whose centre lies inside one of the spheres (centres (S, 3) [m],
     radii (S,) [m]). The same mask as testing every voxel of each sphere's box (tested against
-    that brute force), through `_clear_spheres` on the complement: one
-    run per (i, j) column, and 4^3 blocks already all set are skipped, which is what makes the
-    thousands of overlapping spheres of an executed way cheap on a 1 cm grid. The spheres go
+    that brute force), through `_clear_spheres` on the complement: 4^3 blocks already all
+    set, or out of a sphere's reach, are skipped, which is what makes the thousands of
+    overlapping spheres of an executed way cheap on a 1 cm grid. The spheres go
     in largest first, repeats once (`union_order`): the union is the same in any order, and
     the blocks a large sphere fills are skipped by the smaller ones after it."""
-    if mask.dtype != np.bool_ or not mask.flags.c_contiguous:
-        raise CompassInputError(f"mark_in_spheres needs a C-contiguous bool mask, not {mask.dtype}")
     c = np.ascontiguousarray(centres, dtype=np.float64).reshape(-1, 3)
     r = np.ascontiguousarray(radii, dtype=np.float64).reshape(-1)
     keep = union_order(c, r)
+    _mark_ordered(mask, grid_min, resolution, c[keep], r[keep])
+
+
+def _mark_ordered(mask: np.ndarray, grid_min: np.ndarray, resolution: float, centres: np.ndarray,
+                  radii: np.ndarray) -> None:
+    """`mark_in_spheres` with the spheres (centres (S,3), radii (S,) [m]) taken in the order given."""
+    if mask.dtype != np.bool_ or not mask.flags.c_contiguous:
+        raise CompassInputError(f"mark_in_spheres needs a C-contiguous bool mask, not {mask.dtype}")
     rest = ~mask
-    _clear_spheres(rest, np.asarray(grid_min, dtype=np.float64), float(resolution), c[keep], r[keep])
+    _clear_spheres(rest, np.asarray(grid_min, dtype=np.float64), float(resolution),
+                   np.ascontiguousarray(centres, dtype=np.float64), np.ascontiguousarray(radii, dtype=np.float64))
     np.logical_not(rest, out=mask)
 
 
@@ -131,10 +138,29 @@ def voxels_in_spheres(select: np.ndarray, grid_min: np.ndarray, resolution: floa
 def mark_robot(mask: np.ndarray, occ_map: OccupancyMap, spheres, Q: np.ndarray, margin: float) -> None:
     """Set True, in place, the voxels of mask (occ_map's grid) inside the robot's spheres
     (`robot.spheres.SphereModel`) grown by margin [m] at every configuration of Q (m, 7) [rad]
-    (`mark_in_spheres`): the swept space and start shell of `exploration.world_model`."""
+    (`mark_in_spheres`): the swept space and start shell of `exploration.world_model`. The
+    spheres go in as `way_order` gives them (the same union as `union_order`'s, without its
+    sort of every sphere)."""
     Q = np.asarray(Q, dtype=np.float64).reshape(-1, 7)
-    mark_in_spheres(mask, occ_map.grid_min, occ_map.resolution, spheres.sphere_centers(Q).reshape(-1, 3),
-                    np.tile(np.asarray(spheres.radii, dtype=np.float64) + margin, len(Q)))
+    C = spheres.sphere_centers(Q)
+    r = np.asarray(spheres.radii, dtype=np.float64) + margin
+    take = way_order(C, r)
+    _mark_ordered(mask, occ_map.grid_min, occ_map.resolution, C.reshape(-1, 3)[take], np.tile(r, len(Q))[take])
+
+
+def way_order(C: np.ndarray, radii: np.ndarray) -> np.ndarray:
+    """Indices into C.reshape(-1, 3) (C: (M, S, 3) [m], the centres of the same S spheres, radii
+    (S,) [m], at M configurations in order): by radius, largest first, each model sphere along
+    the way in order, dropping a sphere whose centre equals its own at the configuration
+    before (a link the way did not move: the base at every configuration). The union of the
+    spheres kept is the whole union: only exact repeats are dropped."""
+    C = np.asarray(C, dtype=np.float64)
+    M, S = C.shape[0], C.shape[1]
+    moved = np.ones((M, S), bool)
+    moved[1:] = np.any(C[1:] != C[:-1], axis=2)
+    by_radius = np.argsort(-np.asarray(radii, dtype=np.float64), kind="stable")
+    idx = np.arange(M)[None, :] * S + by_radius[:, None]  # (S, M): sphere by sphere, along the way
+    return idx[moved[:, by_radius].T]
 
 
 class DistanceField:
@@ -322,40 +348,23 @@ def _distances_into(unsafe, res, sq):
     return out
 
 
-@njit(cache=True, inline="always")
-def _in_sphere(dx, dy, gz, res, k, cz, r):
-    dz = gz + (k + 0.5) * res - cz
-    return dx * dx + dy * dy + dz * dz <= r * r
-
-
-@njit(cache=True)
-def _run(dx, dy, gz, res, kc, cz, r, klo, khi):
-    """The run [k0, k1] of voxels in column (dx, dy) inside the sphere, within [klo, khi]
-    (k0 > k1 when empty): from the half-chord, settled with the exact per-voxel test."""
-    rem = r * r - dx * dx - dy * dy
-    if rem < -1e-12:
-        return 1, 0
-    h = math.sqrt(max(rem, 0.0)) / res
-    k0 = min(max(int(math.ceil(kc - h)), klo), khi)
-    k1 = max(min(int(math.floor(kc + h)), khi), klo)
-    if k0 > k1:
-        k0 = k1 = min(max(int(math.floor(kc + 0.5)), klo), khi)
-    while k0 <= k1 and not _in_sphere(dx, dy, gz, res, k0, cz, r):
-        k0 += 1
-    if k0 > k1:  # the estimate missed: the run, if any, holds the voxel nearest the centre
-        k0 = k1 = min(max(int(math.floor(kc + 0.5)), klo), khi)
-        if not _in_sphere(dx, dy, gz, res, k0, cz, r):
-            return 1, 0
-    while k0 > klo and _in_sphere(dx, dy, gz, res, k0 - 1, cz, r):
-        k0 -= 1
-    while k1 > k0 and not _in_sphere(dx, dy, gz, res, k1, cz, r):
-        k1 -= 1
-    while k1 < khi and _in_sphere(dx, dy, gz, res, k1 + 1, cz, r):
-        k1 += 1
-    return k0, k1
-
-
 _BLOCK = 4  # voxels per block edge in `_clear_spheres`' bookkeeping
+#: Slack [m^2, relative to 1 + r^2] of `_clear_spheres`' whole-block tests: far above the
+#: rounding of the per-voxel test, so a block within it of the sphere's surface takes the exact
+#: per-voxel path, and a block skipped or filled whole gets what that path would give it.
+_SLACK = 1e-9
+
+
+@njit(cache=True, inline="always")
+def _axis_span(g0, res, c, i0, i1):
+    """(nearest, farthest) squared offset [m^2] along one axis from the sphere centre c [m]
+    to the centres of voxels i0..i1 (grid origin g0 [m], edge res [m])."""
+    d0 = g0 + (i0 + 0.5) * res - c
+    d1 = g0 + (i1 + 0.5) * res - c
+    far = max(d0 * d0, d1 * d1)
+    if d0 <= 0.0 <= d1:
+        return 0.0, far
+    return min(d0 * d0, d1 * d1), far
 
 
 @njit(cache=True)
@@ -363,12 +372,16 @@ def _clear_spheres(unsafe, grid_min, res, centers, radii):
     """Mark safe (False) every voxel whose centre lies inside one of the spheres.
 
     The result equals testing every voxel of every sphere's box (dx^2 + dy^2 + dz^2 <= r^2;
-    `tests/test_grasp_field.py` compares it with that brute force), with two shortcuts for
-    the tens of thousands of heavily overlapping spheres of a robot's executed way: each
-    (i, j) column of a sphere is one run along k (from the half-chord, settled with the
-    exact test), and blocks of 4^3 voxels with no unsafe voxel left are skipped (a count
-    per block is kept as voxels are cleared; only the blocks the spheres' common bounding
-    box touches are counted, so a few spheres on a large grid cost little)."""
+    `tests/test_grasp_field.py` compares it with that brute force), with shortcuts for the
+    tens of thousands of heavily overlapping spheres of a robot's executed way, on blocks of
+    4^3 voxels: a block with no unsafe voxel left is skipped (a count per block is kept as
+    voxels are cleared; only the blocks the spheres' common bounding box touches are counted,
+    so a few spheres on a large grid cost little); a block whose voxel centres all lie
+    farther from the sphere's centre than its radius is skipped, and one whose centres all
+    lie nearer is cleared whole, both decided on the block's nearest and farthest centre
+    along each axis with a slack (`_SLACK`) far above rounding; only the blocks the sphere's
+    surface crosses test their unsafe voxels one by one (the same expression as the brute
+    force, term for term, so the same answer on every voxel)."""
     nx, ny, nz = unsafe.shape
     B = _BLOCK
     bx, by, bz = (nx + B - 1) // B, (ny + B - 1) // B, (nz + B - 1) // B
@@ -388,7 +401,7 @@ def _clear_spheres(unsafe, grid_min, res, centers, radii):
                 bhi[a] = max(bhi[a], boxes[s, 3 + a])
     if bhi[0] < 0:
         return
-    left = np.zeros((bx, by, bz), np.int64)
+    left = np.zeros((bx, by, bz), np.int16)  # unsafe voxels left per block (at most B^3 = 64)
     for i in range((blo[0] // B) * B, min((bhi[0] // B + 1) * B, nx)):
         for j in range((blo[1] // B) * B, min((bhi[1] // B + 1) * B, ny)):
             for k in range((blo[2] // B) * B, min((bhi[2] // B + 1) * B, nz)):
@@ -396,6 +409,7 @@ def _clear_spheres(unsafe, grid_min, res, centers, radii):
                     left[i // B, j // B, k // B] += 1
     lo = np.empty(3, np.int64)
     hi = np.empty(3, np.int64)
+    dz2 = np.empty(B)
     for s in range(S):
         r = radii[s]
         for a in range(3):
@@ -403,19 +417,48 @@ def _clear_spheres(unsafe, grid_min, res, centers, radii):
             hi[a] = boxes[s, 3 + a]
         if lo[0] > hi[0] or lo[1] > hi[1] or lo[2] > hi[2]:
             continue
-        kc = (centers[s, 2] - grid_min[2]) / res - 0.5
+        r2 = r * r
+        out2 = r2 + _SLACK * (1.0 + r2)  # a block nearer than this may hold a voxel inside
+        in2 = r2 - _SLACK * (1.0 + r2)  # a block within this holds only voxels inside
         for ib in range(lo[0] // B, hi[0] // B + 1):
+            i0, i1 = max(lo[0], ib * B), min(hi[0], ib * B + B - 1)
+            nx2, fx2 = _axis_span(grid_min[0], res, centers[s, 0], i0, i1)
+            if nx2 > out2:
+                continue
             for jb in range(lo[1] // B, hi[1] // B + 1):
-                for kb in range(lo[2] // B, hi[2] // B + 1):
+                j0, j1 = max(lo[1], jb * B), min(hi[1], jb * B + B - 1)
+                ny2, fy2 = _axis_span(grid_min[1], res, centers[s, 1], j0, j1)
+                if nx2 + ny2 > out2:
+                    continue
+                h = math.sqrt(max(out2 - nx2 - ny2, 0.0))  # the half chord along z here, a voxel more each way
+                kb0 = max(lo[2], int(math.floor((centers[s, 2] - h - grid_min[2]) / res - 1.5))) // B
+                kb1 = min(hi[2], int(math.ceil((centers[s, 2] + h - grid_min[2]) / res + 0.5))) // B
+                for kb in range(kb0, kb1 + 1):
                     if left[ib, jb, kb] == 0:
                         continue
                     klo, khi = max(lo[2], kb * B), min(hi[2], kb * B + B - 1)
-                    for i in range(max(lo[0], ib * B), min(hi[0], ib * B + B - 1) + 1):
+                    nz2, fz2 = _axis_span(grid_min[2], res, centers[s, 2], klo, khi)
+                    if nx2 + ny2 + nz2 > out2:  # no voxel centre of the block inside
+                        continue
+                    if fx2 + fy2 + fz2 < in2:  # every voxel centre of the block inside
+                        for i in range(i0, i1 + 1):
+                            for j in range(j0, j1 + 1):
+                                for k in range(klo, khi + 1):
+                                    if unsafe[i, j, k]:
+                                        unsafe[i, j, k] = False
+                                        left[ib, jb, kb] -= 1
+                        continue
+                    for k in range(klo, khi + 1):  # the sphere's surface crosses the block: per voxel
+                        dz = grid_min[2] + (k + 0.5) * res - centers[s, 2]
+                        dz2[k - klo] = dz * dz
+                    for i in range(i0, i1 + 1):
                         dx = grid_min[0] + (i + 0.5) * res - centers[s, 0]
-                        for j in range(max(lo[1], jb * B), min(hi[1], jb * B + B - 1) + 1):
+                        for j in range(j0, j1 + 1):
                             dy = grid_min[1] + (j + 0.5) * res - centers[s, 1]
-                            k0, k1 = _run(dx, dy, grid_min[2], res, kc, centers[s, 2], r, klo, khi)
-                            for k in range(k0, k1 + 1):
-                                if unsafe[i, j, k]:
+                            dxy = dx * dx + dy * dy
+                            if dxy > r2:
+                                continue
+                            for k in range(klo, khi + 1):  # the brute force's test, term for term
+                                if unsafe[i, j, k] and dxy + dz2[k - klo] <= r2:
                                     unsafe[i, j, k] = False
                                     left[ib, jb, kb] -= 1
