@@ -25,6 +25,8 @@
   assumption took as free (`VerifyConfig(assumed_only=True, refuse=False)`, branch e2e4).
 * grasp_look_outward: as grasp_look_assumed, a third of the look directions away from the base.
 * find_only: no GRASP state (the trial ends at FOUND), as `compass run --find-only`.
+* find_only_border075: find_only with the detector's former rule at the image border (a region
+  cut by the border accepted when 75 % of the object shows).
 * former_defaults: the grasp stage's defaults until 2026-11-24's second session: no near-field
   scan, the near-body volume swept with joint 1 within +-1.2 rad of home's. The variants below
   that say "the former defaults" start from it, so their records stay reproducible.
@@ -41,6 +43,7 @@ from __future__ import annotations
 from dataclasses import replace
 
 from compass_manip.grasp.select import GraspSelectConfig
+from compass_manip.perception.detector import DetectorConfig
 from compass_manip.trial.config import GraspTrialConfig, TrialConfig
 from compass_manip.trial.grasp_scan import TrialScanConfig
 from compass_manip.trial.inspect import InspectConfig
@@ -266,3 +269,14 @@ def scan_yaw06_config() -> TrialConfig:
 
 def scan_yaw06(spec) -> tuple[dict, dict]:
     return _run(spec, scan_yaw06_config())
+
+
+def find_only_border075_config() -> TrialConfig:
+    """find_only with the detector's former rule at the image border: a region cut by the border
+    is accepted when 75 % of the query's height and width show (`DetectorConfig.border_completeness`,
+    None by default since 2026-11-24: never accepted there)."""
+    return replace(find_only_config(), detector=DetectorConfig(border_completeness=0.75))
+
+
+def find_only_border075(spec) -> tuple[dict, dict]:
+    return _run(spec, find_only_border075_config())

@@ -263,3 +263,31 @@ def test_may_detect_then_detect_on_one_image_computes_its_colour_mask_once():
     again = det(replace(obs, rgb=obs.rgb.copy()), query)
     assert len(calls) == 2 and [d.bbox for d in again] == [d.bbox for d in want]
     assert np.array_equal(det._colour_mask(obs.rgb, query.colour), inner(obs.rgb, query.colour))
+
+
+def test_a_larger_same_colour_box_cut_by_the_image_border_is_not_accepted():
+    """A red box three times the target's width, cut by the image's right border, shows a
+    target-sized part: its extents along the cut are lower bounds, so it is only a point of
+    interest (PARTIAL) by default; the former rule (accept at the border when 75 % of the
+    query shows, `border_completeness=0.75`) accepted it. The whole target near the border is
+    still accepted."""
+    big = Primitive("red_big", "box", (0.025, 0.08, 0.06), (0.66, -0.28, FLOOR_Z + 0.06), 0.0, RED)
+    far = replace(TARGET, pos=(0.80, 0.25, FLOOR_Z + 0.06))
+    frame, _ = _observe(_scene([big], target=far))
+    query = target_query(TARGET)
+    W = frame.observation().rgb.shape[1]
+
+    def on_big(dets):
+        return [d for d in dets if d.centroid_world[1] < -0.15]
+
+    now = on_big(AppearanceDetector()(frame.observation(), query))
+    former = on_big(AppearanceDetector(DetectorConfig(border_completeness=0.75))(frame.observation(), query))
+    assert len(now) == 1 and now[0].bbox[2] >= W - 2  # cut by the right border
+    assert now[0].verdict is Verdict.PARTIAL and former[0].verdict is Verdict.ACCEPTED
+    near = replace(TARGET, pos=(0.66, -0.20, FLOOR_Z + 0.06))
+    frame, _ = _observe(_scene([], target=near))
+    assert [d.verdict for d in AppearanceDetector()(frame.observation(), query)] == [Verdict.ACCEPTED]
+    from compass_manip.errors import CompassInputError
+    for bad in (1.5, 0.0, -0.2):
+        with pytest.raises(CompassInputError, match="border_completeness"):
+            DetectorConfig(border_completeness=bad)

@@ -55,8 +55,13 @@ class DetectorConfig:
     extents may exceed the query's by this fraction (+ size_slack [m]); min_completeness:
     visible height and width over the query's needed to accept (0.3, as a good view sees 30 % of
     the target: with 0.6 a bottle of which only the neck and shoulder show above a box in front
-    never passed; on the seed-101 side-by-side 0.3 accepted no wrong object); border_px: regions touching
-    the image border are partial unless at least border_completeness of the object shows;
+    never passed; on the seed-101 side-by-side 0.3 accepted no wrong object); border_px: a region
+    within this many pixels of the image border is cut by it: its extents along the cut are
+    lower bounds, so the size test cannot tell it from a larger object of the same colour and
+    shape, and it is partial (a point of interest) unless border_completeness is set, in which
+    case it is accepted when at least that share of the object shows (0.75 from 2026-11-22 until
+    2026-11-24: on seed 9191 level 1 scene 3 it accepted the corner of a white cereal box, 8.1 x
+    11.4 cm of it in the image's corner, as the 4.7 x 4.6 x 13.5 cm white box queried);
     min_curvature_ratio: a region classed round must deviate from its best plane by at least
     this share of what a cylinder of the query's radius would over the same visible width
     (`shape.curved_like`), else its side is flat (a sliver of a box face is not a can)."""
@@ -74,13 +79,15 @@ class DetectorConfig:
     size_slack: float = 0.01
     min_completeness: float = 0.3
     border_px: int = 2
-    border_completeness: float = 0.75
+    border_completeness: float | None = None
     min_curvature_ratio: float = 0.5
     max_points: int = 3000
 
     def __post_init__(self) -> None:
         if not 0 < self.colour_max_angle_deg < 45:
             raise CompassInputError(f"colour_max_angle_deg {self.colour_max_angle_deg} must be in (0, 45)")
+        if self.border_completeness is not None and not 0 < self.border_completeness <= 1:
+            raise CompassInputError(f"border_completeness {self.border_completeness} must be in (0, 1] or None")
         if not 0 < self.min_completeness <= 1:
             raise CompassInputError(f"min_completeness {self.min_completeness} must be in (0, 1]")
         if self.min_pixels < 1:
@@ -179,6 +186,13 @@ class AppearanceDetector:
         out = [self._region(obs, labels, k, slices[k - 1], pts, query) for k in keep]
         return tuple(out)
 
+    def _needed_completeness(self, at_border: bool) -> float:
+        """The share of the query's height and width a region must show to be accepted (inf:
+        never, for a region cut by the image border unless `border_completeness` is set)."""
+        if not at_border:
+            return self.config.min_completeness
+        return math.inf if self.config.border_completeness is None else self.config.border_completeness
+
     def _region(self, obs, labels, k, sl, pts, query) -> Detection:
         config = self.config
         H, W = labels.shape
@@ -206,7 +220,7 @@ class AppearanceDetector:
             verdict = Verdict.WRONG_SIZE
         elif shape not in ("unknown", family):
             verdict = Verdict.WRONG_SHAPE
-        elif shape == family and completeness >= (config.border_completeness if at_border else config.min_completeness):
+        elif shape == family and completeness >= self._needed_completeness(at_border):
             verdict = Verdict.ACCEPTED
         else:
             verdict = Verdict.PARTIAL
