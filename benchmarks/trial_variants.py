@@ -57,22 +57,22 @@ def _run(spec, config: TrialConfig) -> tuple[dict, dict]:
 
 
 def grasp_map_no_near_body_config() -> TrialConfig:
-    return TrialConfig(grasp=GraspTrialConfig(scan=TrialScanConfig(max_views=0), near_body_yaw=1.2,
-                                              grasp_map=True, near_body_free=False, fine_map=False))
+    return TrialConfig(grasp=GraspTrialConfig(scan=TrialScanConfig(max_views=0), grasp_map=True, near_body_free=False,
+                                              fine_map=False))
 
 
 def grasp_map_fine_config() -> TrialConfig:
-    return TrialConfig(grasp=GraspTrialConfig(scan=TrialScanConfig(max_views=0), near_body_yaw=1.2,
-                                              grasp_map=True, near_body_free=False, fine_map=True))
+    return TrialConfig(grasp=GraspTrialConfig(scan=TrialScanConfig(max_views=0), grasp_map=True, near_body_free=False,
+                                              fine_map=True))
 
 
 def grasp_scan_config() -> TrialConfig:
-    return TrialConfig(grasp=GraspTrialConfig(near_body_yaw=1.2, grasp_map=True, near_body_free=False, fine_map=True,
+    return TrialConfig(grasp=GraspTrialConfig(grasp_map=True, near_body_free=False, fine_map=True,
                                               scan=TrialScanConfig()))
 
 
 def grasp_scan_via_config() -> TrialConfig:
-    return TrialConfig(grasp=GraspTrialConfig(near_body_yaw=1.2, grasp_map=True, near_body_free=False, fine_map=True,
+    return TrialConfig(grasp=GraspTrialConfig(grasp_map=True, near_body_free=False, fine_map=True,
                                               scan=TrialScanConfig(), plan_via_home=True))
 
 
@@ -95,7 +95,7 @@ def grasp_scan_via(spec) -> tuple[dict, dict]:
 def grasp_scan_more_config() -> TrialConfig:
     """grasp_scan_via with 150 candidates checked by IK (`GraspSelectConfig.max_checked`; the default was 60
     when this variant was measured, 400 since branch gmod, so today it checks fewer than the default)."""
-    return TrialConfig(grasp=GraspTrialConfig(near_body_yaw=1.2, grasp_map=True, near_body_free=False, fine_map=True,
+    return TrialConfig(grasp=GraspTrialConfig(grasp_map=True, near_body_free=False, fine_map=True,
                                               scan=TrialScanConfig(), plan_via_home=True,
                                               select=GraspSelectConfig(max_checked=150)))
 
@@ -106,7 +106,7 @@ def grasp_scan_more(spec) -> tuple[dict, dict]:
 
 def grasp_scan_long_config() -> TrialConfig:
     """grasp_scan_more with up to 16 scan views and INSPECT views taken from 0.5 % of the hypotheses' weight."""
-    return TrialConfig(grasp=GraspTrialConfig(near_body_yaw=1.2, grasp_map=True, near_body_free=False, fine_map=True,
+    return TrialConfig(grasp=GraspTrialConfig(grasp_map=True, near_body_free=False, fine_map=True,
                                               scan=TrialScanConfig(max_views=16), plan_via_home=True,
                                               select=GraspSelectConfig(max_checked=150),
                                               inspect=InspectConfig(min_fraction=0.005)))
@@ -140,8 +140,8 @@ def grasp_inspect_own_config() -> TrialConfig:
     """The grasp map with its 5 mm fine map and up to 20 grasp-aware INSPECT views, with no
     assumption about unknown space beyond the method's own (its swept space and start shell,
     `GraspTrialConfig.method_swept`): no near-body assumption."""
-    return TrialConfig(grasp=GraspTrialConfig(scan=TrialScanConfig(max_views=0), near_body_yaw=1.2,
-                                              grasp_map=True, fine_map=True, near_body_free=False,
+    return TrialConfig(grasp=GraspTrialConfig(scan=TrialScanConfig(max_views=0), grasp_map=True, fine_map=True,
+                                              near_body_free=False,
                                               inspect=InspectConfig(n_views=20)))
 
 
