@@ -37,6 +37,8 @@
 * inspect_groups: the former defaults with up to 3 groups of INSPECT views planned per step.
 * scan_yaw06: the scan and the +-0.6 rad volume together: the defaults since 2026-11-24's
   second session (`TrialConfig()`), kept so the comparison can be re-run whatever the default.
+* scan_yaw09: the defaults with the near-body volume within +-0.9 rad (docs/grasping_log.md,
+  "A point between on the dial").
 """
 from __future__ import annotations
 
@@ -280,3 +282,13 @@ def find_only_border075_config() -> TrialConfig:
 
 def find_only_border075(spec) -> tuple[dict, dict]:
     return _run(spec, find_only_border075_config())
+
+
+def scan_yaw09_config() -> TrialConfig:
+    """The defaults with the near-body volume swept with joint 1 within +-0.9 rad of home's (0.6 by
+    default): a point between the defaults and the former 1.2 rad on the grasps / collisions dial."""
+    return TrialConfig(grasp=replace(GraspTrialConfig(), near_body_yaw=0.9))
+
+
+def scan_yaw09(spec) -> tuple[dict, dict]:
+    return _run(spec, scan_yaw09_config())
