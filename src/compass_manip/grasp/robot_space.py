@@ -108,11 +108,24 @@ def base_volume_mask(spheres: SphereModel, occ: OccupancyMap) -> np.ndarray:
     return _grid_constant("base_volume", spheres, occ, b"", build)
 
 
-def near_body_spheres(spheres: SphereModel, q_home: np.ndarray, yaw: float = 1.2) -> tuple[np.ndarray, np.ndarray]:
+#: Joint 1's range [rad] around home's of the near-body volume the assumption has swept since it
+#: exists, and the grasp-only harness's; the trial's is narrower since 2026-11-24
+#: (`trial.config.GraspTrialConfig.near_body_yaw`).
+WIDE_NEAR_BODY_YAW = 1.2
+
+
+def check_near_body_yaw(yaw) -> float:
+    """yaw [rad] as a float, or CompassInputError naming it unless a number in 0..2.9 rad."""
+    if isinstance(yaw, bool) or not isinstance(yaw, (int, float, np.floating)) or not 0.0 <= yaw <= 2.9:
+        raise CompassInputError(f"near_body_yaw {yaw!r} rad is not allowed; use 0..2.9 rad")
+    return float(yaw)
+
+
+def near_body_spheres(spheres: SphereModel, q_home: np.ndarray,
+                      yaw: float = WIDE_NEAR_BODY_YAW) -> tuple[np.ndarray, np.ndarray]:
     """(centres (S, 3) [m], radii (S,) [m]) of links 0-4's spheres swept around q_home: joint 1
     within +-yaw [rad] of q_home's (9 values), joints 2-4 over a grid (675 configurations)."""
-    if not 0.0 <= yaw <= 2.9:
-        raise CompassInputError(f"near-body yaw {yaw!r} rad is not allowed; use 0..2.9 rad")
+    yaw = check_near_body_yaw(yaw)
     names = ("panda_link0", "panda_link1", "panda_link2", "panda_link3", "panda_link4")
     keep = np.isin(spheres.body_index, [spheres.link_names.index(k) for k in names])
     q1 = float(np.asarray(q_home, dtype=np.float64)[0]) + np.linspace(-yaw, yaw, 9)
@@ -124,12 +137,13 @@ def near_body_spheres(spheres: SphereModel, q_home: np.ndarray, yaw: float = 1.2
     return spheres.sphere_centers(Q)[:, keep].reshape(-1, 3), np.tile(spheres.radii[keep], len(Q))
 
 
-def near_body_swept(occ: OccupancyMap, spheres: SphereModel, q_home: np.ndarray, yaw: float = 1.2) -> np.ndarray:
+def near_body_swept(occ: OccupancyMap, spheres: SphereModel, q_home: np.ndarray,
+                    yaw: float = WIDE_NEAR_BODY_YAW) -> np.ndarray:
     """(nx, ny, nz) bool, read-only: the voxels of occ's grid whose centres lie inside
     `near_body_spheres` (joint 1 within +-yaw [rad] of q_home's). A constant of the robot and
     the grid, computed once per sphere model, grid, q_home and yaw (71,550 spheres)."""
     q_home = np.asarray(q_home, dtype=np.float64)
-    yaw = float(yaw)
+    yaw = check_near_body_yaw(yaw)
 
     def build():
         inside = np.zeros(occ.shape, bool)

@@ -22,7 +22,7 @@ import numpy as np
 from ..exploration.wrist_sweep import wrist_sweep
 from ..geometry import look_at, make_T, rot_z
 from ..grasp.field import local_fine_map
-from ..grasp.robot_space import RobotSpaceMask, near_body_swept
+from ..grasp.robot_space import WIDE_NEAR_BODY_YAW, RobotSpaceMask, near_body_swept
 from ..grasp.candidates import AntipodalProposer, PinnedProposer
 from ..grasp.select import GraspSelectConfig, GraspSelection, select_grasp
 from ..grasp.target import TargetModel, backproject, build_target_model, TargetConfig
@@ -215,7 +215,8 @@ def near_field_configs(world: World, rng: np.random.Generator, n: int) -> list[n
     return out
 
 
-def near_body_unknown(occ: OccupancyMap, spheres, q_home: np.ndarray, yaw: float = 1.2) -> np.ndarray:
+def near_body_unknown(occ: OccupancyMap, spheres, q_home: np.ndarray,
+                      yaw: float = WIDE_NEAR_BODY_YAW) -> np.ndarray:
     """NEAR-BODY ASSUMPTION (stands in for the NFA scan, which the exploration branch owns):
     unknown voxels inside the volume swept by links 0-4 around the home posture, joint 1
     within +-yaw [rad] of home's (`grasp.robot_space.near_body_swept`), are taken as free.

@@ -7,6 +7,7 @@ from dataclasses import dataclass, field, fields, is_dataclass
 
 from ..errors import CompassInputError
 from ..exploration.compass import CompassConfig
+from ..grasp.robot_space import check_near_body_yaw
 from ..grasp.select import GraspSelectConfig
 from ..grasp.target import TargetConfig
 from ..motion.timing import TimingConfig
@@ -153,9 +154,7 @@ class GraspTrialConfig:
         if self.verify is not None and not isinstance(self.verify, VerifyConfig):
             raise CompassInputError(f"GraspTrialConfig.verify = {self.verify!r:.40} is not allowed; "
                                     "use a VerifyConfig or None")
-        if isinstance(self.near_body_yaw, bool) or not isinstance(self.near_body_yaw, (int, float)) \
-                or not 0.0 <= self.near_body_yaw <= 2.9:
-            raise CompassInputError(f"near_body_yaw {self.near_body_yaw!r} rad is not allowed; use 0..2.9 rad")
+        check_near_body_yaw(self.near_body_yaw)
         if not 0.0 <= self.near_body_halo <= 0.3:
             raise CompassInputError(f"near_body_halo {self.near_body_halo} m is not allowed; use 0..0.3 m")
         if not 0.0 <= self.moved_margin <= 0.1 or not 1 <= self.max_moved_configs <= 100000:
