@@ -212,3 +212,15 @@ def test_coarse_view_visibility_is_refined_exactly_where_it_decides(base):
     thr = cfg.min_view_visibility
     assert np.array_equal(v_c >= thr, v_e >= thr)  # every pose on the same side of the threshold
     assert (~near).sum() > len(v_c) // 2  # and most poses never needed the exact rays
+
+
+def test_a_seed_whose_candidates_all_fail_gets_one_named_error_not_a_runtime_error():
+    """Level 1 scene 4 of seed 0 rejects its first candidate (home clearance): with one attempt
+    allowed the error names the level, index, seed and the rejections, and is a
+    CompassInputError (one line in the CLI, a recorded failure in a sweep)."""
+    from compass_manip.sim.certify import NoCertifiedScene
+
+    with pytest.raises(NoCertifiedScene, match=r"level 1, index 4, seed 0 within 1 attempts \(1 candidates "
+                                               r"rejected: HOME_CLEARANCE 1\); use another seed") as info:
+        certified_scene(1, 4, 0, CertifyConfig(max_attempts=1), cache=False)
+    assert isinstance(info.value, CompassInputError)

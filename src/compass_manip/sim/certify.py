@@ -56,6 +56,12 @@ from .view_search import best_exact_visibility, sample_view_poses, search_views 
 from .world import World
 
 
+class NoCertifiedScene(CompassInputError):
+    """No candidate of (level, index, seed) passed certification within
+    `CertifyConfig.max_attempts`: the message names them, the rejections' counts and what
+    to do (another seed or index); the CLI prints it as one line, a sweep records it."""
+
+
 class CertFailure(enum.Enum):
     HOME_IN_COLLISION = "home configuration in collision"
     HOME_CLEARANCE = "scene geometry in the start shell a method assumes free"
@@ -104,7 +110,7 @@ class CertifyConfig:
     min_view_visibility: float = 0.3
     max_start_visibility: float = 0.05
     min_obstacle_removal: float = 0.3
-    max_attempts: int = 800
+    max_attempts: int = 4000
     n_q7: int = 6
     n_q7_grasp: int = 12
     max_grasp_candidates: int = 24
@@ -478,8 +484,12 @@ def certified_scene(level: int, index: int, seed: int = 0, config: CertifyConfig
             continue
         if level >= 3 and attempt % OBSTACLE_DRAWS and not _other_obstacles_may_pass(scene, cert, config.per_kind_obstacle_levels):
             attempt += OBSTACLE_DRAWS - attempt % OBSTACLE_DRAWS  # the next layout
-    raise RuntimeError(
-        f"no certified scene for level {level}, index {index}, seed {seed} in {config.max_attempts} attempts"
+    counts = sorted({r: rejections.count(r) for r in rejections}.items(), key=lambda kv: -kv[1])
+    raise NoCertifiedScene(
+        f"no certified scene for level {level}, index {index}, seed {seed} within {config.max_attempts} "
+        f"attempts ({len(rejections)} candidates rejected: "
+        + ", ".join(f"{r} {n}" for r, n in counts[:4])
+        + "); use another seed or scene index"
     )
 
 
