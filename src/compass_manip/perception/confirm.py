@@ -1,0 +1,148 @@
+"""Confirmation of TENTATIVE matches across frames (run by `buffer.DetectionBuffer`).
+
+A TENTATIVE detection (`detector.Verdict`) matches the query in colour and shape family, but
+less than `DetectorConfig.confirm_completeness` of it shows: a region cut by an occluder (or
+by a colour change on a larger surface) has extents that are only lower bounds, so the size
+test cannot tell the target from a larger object of the same colour. One frame never accepts
+it. `Confirmer` keeps the places of tentative matches (candidates: their points, fused over
+frames, and the camera positions that saw them) and, frame by frame, in order:
+
+* drops (vetoes) a candidate when a region of the query's colour judged WRONG_SIZE or
+  WRONG_SHAPE covers it (at least half of the candidate's points within `overlap_m` of that
+  region's points): a larger or wrong-shaped object of that colour is seen at that place;
+* confirms a tentative detection when its centroid lies within `radius` (a share of the
+  query's diagonal) of a candidate's, its camera is at least `baseline_m` from some camera
+  that saw the candidate (a second, independent viewpoint) and the candidate's points with
+  the detection's still fit the query's size (at most `size_tolerance` larger + 1 cm): the
+  detection becomes ACCEPTED (its frame's time is the time found);
+* else a fused size too large vetoes the candidate, and a detection seen from too near the
+  candidate's cameras joins it; a detection near no candidate starts one.
+
+A vetoed candidate is kept so that later tentative matches at its place are never confirmed.
+Matches seen whole (ACCEPTED by the detector) are not touched. Everything depends on the
+frames' order and content only, so a seed still gives one trial.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from ..errors import CompassInputError
+from ..task import TargetQuery
+from .detector import Detection, Verdict
+from .target import upright_extents
+
+_CONTRADICTING = (Verdict.WRONG_SIZE, Verdict.WRONG_SHAPE)
+
+
+@dataclass(frozen=True)
+class ConfirmConfig:
+    """baseline_m [m]: least distance between the camera of a confirming frame and some camera
+    that saw the candidate; radius: a confirming detection's centroid within this share of the
+    query's diagonal of the candidate's; size_tolerance: the fused points' upright extents may
+    exceed the query's by this share (+ 1 cm); overlap_m [m]: a candidate point is covered by a
+    contradicting region within this distance; max_points: points kept per candidate."""
+
+    baseline_m: float = 0.08
+    radius: float = 0.5
+    size_tolerance: float = 0.2
+    overlap_m: float = 0.01
+    max_points: int = 3000
+
+    def __post_init__(self) -> None:
+        checks = (("baseline_m", 0.0, 1.0), ("radius", 0.05, 2.0), ("size_tolerance", 0.0, 1.0),
+                  ("overlap_m", 0.001, 0.1))
+        for name, lo, hi in checks:
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not lo <= v <= hi:
+                raise CompassInputError(f"confirm {name} {v!r} is not allowed; use {lo}..{hi}")
+        if isinstance(self.max_points, bool) or not isinstance(self.max_points, int) or not 10 <= self.max_points <= 100000:
+            raise CompassInputError(f"confirm max_points {self.max_points!r} is not allowed; use 10..100000")
+
+
+@dataclass(eq=False)
+class Candidate:
+    """The place of a tentative match: points (N, 3) [m] fused over its frames, the camera
+    positions (M, 3) [m] that saw it, its first time t [s]; vetoed: a larger or wrong-shaped
+    object of the query's colour was seen there."""
+
+    points: np.ndarray
+    cameras: list[np.ndarray]
+    t: float
+    vetoed: bool = False
+    n_frames: int = 1
+    centroid: np.ndarray = field(init=False)
+
+    def __post_init__(self) -> None:
+        self.centroid = self.points.mean(axis=0)
+
+
+class Confirmer:
+    """Turns a frame's TENTATIVE detections into ACCEPTED ones once confirmed (see the module
+    docstring); `confirmed` counts them, `candidates` are the places seen so far."""
+
+    def __init__(self, query: TargetQuery, config: ConfirmConfig | None = None) -> None:
+        self.query, self.config = query, config or ConfirmConfig()
+        size = np.asarray(query.size, float)
+        self.radius_m = self.config.radius * float(np.linalg.norm(size))
+        self.candidates: list[Candidate] = []
+        self.confirmed = 0
+
+    def __call__(self, detections: tuple[Detection, ...]) -> tuple[Detection, ...]:
+        """The frame's detections, each TENTATIVE one that is confirmed now ACCEPTED."""
+        for d in detections:
+            if d.verdict in _CONTRADICTING:
+                self._contradict(d)
+        return tuple(self._tentative(d) if d.verdict is Verdict.TENTATIVE else d for d in detections)
+
+    def _contradict(self, d: Detection) -> None:
+        P = np.asarray(d.points_world, float).reshape(-1, 3)
+        if len(P) == 0:
+            return
+        tree = None
+        for c in self.candidates:
+            if c.vetoed or np.linalg.norm(P - c.centroid, axis=1).min() > self.radius_m:
+                continue
+            tree = cKDTree(P) if tree is None else tree
+            near = tree.query(c.points, distance_upper_bound=self.config.overlap_m)[0] <= self.config.overlap_m
+            if near.mean() >= 0.5:
+                c.vetoed = True
+
+    def fits(self, points: np.ndarray) -> bool:
+        """Whether points (N, 3) [m] fit in the query's size (upright extents at most
+        size_tolerance larger + 1 cm; the major horizontal extent against the diagonal)."""
+        a, b, c = (float(v) for v in self.query.size)
+        ext = upright_extents(points)
+        tol = 1.0 + self.config.size_tolerance
+        return ext[2] <= c * tol + 0.01 and ext[0] <= math.hypot(a, b) * tol + 0.01
+
+    def _tentative(self, d: Detection) -> Detection:
+        P = np.asarray(d.points_world, float).reshape(-1, 3)
+        cam = np.asarray(d.T_world_cam, float)[:3, 3]
+        near = [c for c in self.candidates if np.linalg.norm(c.centroid - d.centroid_world) <= self.radius_m]
+        for c in near:
+            if c.vetoed:
+                continue
+            fused = np.vstack([c.points, P])
+            if not self.fits(fused):
+                c.vetoed = True
+                continue
+            if max(float(np.linalg.norm(cam - k)) for k in c.cameras) >= self.config.baseline_m:
+                self.confirmed += 1
+                return replace(d, verdict=Verdict.ACCEPTED)
+        if near:
+            c = near[0]
+            c.points = self._thin(np.vstack([c.points, P]))
+            c.cameras.append(cam)
+            c.n_frames += 1
+            c.centroid = c.points.mean(axis=0)
+        elif len(P):
+            self.candidates.append(Candidate(self._thin(P), [cam], float(d.t)))
+        return d
+
+    def _thin(self, P: np.ndarray) -> np.ndarray:
+        n = self.config.max_points
+        return P if len(P) <= n else P[np.linspace(0, len(P) - 1, n).astype(int)]
