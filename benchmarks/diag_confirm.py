@@ -43,6 +43,11 @@ def owner(scene, det, margin: float = 0.015) -> str:
 
 class RecordingBuffer(buffer_mod.DetectionBuffer):
     log: list = []
+    instances: list = []
+
+    def __init__(self, *args, **kwargs) -> None:
+        super().__init__(*args, **kwargs)
+        RecordingBuffer.instances.append(self)
 
     def _process(self, obs) -> None:
         super()._process(obs)
@@ -76,8 +81,14 @@ def main() -> None:
         print(f"t {obs.t:7.2f} cam {cam}")
         for d in dets:
             ext = " x ".join(f"{100 * e:.1f}" for e in d.extents)
-            print(f"    {d.verdict.value:12s} {d.shape:7s} {ext:18s} c {d.score:.2f} px {d.n_pixels:5d} "
+            tag = "CONFIRMED " if d.verdict.value == "accepted" and d.score < 0.6 else ""
+            print(f"    {tag}{d.verdict.value:12s} {d.shape:7s} {ext:18s} c {d.score:.2f} px {d.n_pixels:5d} "
                   f"bbox {d.bbox} at {np.round(d.centroid_world, 3)} -> {owner(scene, d)}")
+    for buf in RecordingBuffer.instances:
+        for c in buf.confirmer.candidates:
+            print(f"candidate from t {c.t:.2f}: {c.n_frames} frames, cameras {len(c.cameras)} spanning "
+                  f"{max(np.linalg.norm(a - b) for a in c.cameras for b in c.cameras):.3f} m, vetoed {c.vetoed}, "
+                  f"at {np.round(c.centroid, 3)}")
     r = run.result
     found = run.outcome.found
     print(json.dumps({"failure": None if r.failure is None else r.failure.value, "tft_s": r.tft_s,
