@@ -7,8 +7,9 @@ window). `best()` returns, among the window's ACCEPTED detections, the one whose
 is nearest the image centre (the paper's S_obs = -||p_bbox - p_center||); ties go to the
 later observation. TENTATIVE detections (matches not clearly whole, `detector.Verdict`) are
 never accepted from one frame: `confirm.Confirmer` turns one ACCEPTED when a later frame from
-another camera position confirms it (`BufferConfig.confirm`), and until then its centroid is a
-point of interest like a PARTIAL one's. `sync()` waits until every pushed observation has been processed: the
+another camera position confirms it, or when nothing confirmed nor contradicted it for
+`ConfirmConfig.accept_after_s` of simulated time (`BufferConfig.confirm`); until then its
+centroid is a point of interest like a PARTIAL one's. `sync()` waits until every pushed observation has been processed: the
 trial calls it at decision points so that runs are reproducible while detection still runs
 concurrently with the motion, mapping and decisions in between.
 
@@ -180,10 +181,12 @@ class DetectionBuffer:
 
     def _process(self, obs: Observation) -> None:
         t0 = time.perf_counter()
-        dets = self.confirmer(tuple(self.detector(obs, self.query)))
+        dets = self.confirmer(tuple(self.detector(obs, self.query)), obs)
+        late = self.confirmer.due(float(obs.t))  # tentative matches accepted after waiting
         dt = time.perf_counter() - t0
         with self._lock:
             self._window.append((obs, dets))
+            self._window.extend((o, (d,)) for d, o in late)
             self._hints.extend(d.centroid_world for d in dets if d.verdict in (Verdict.PARTIAL, Verdict.TENTATIVE))
             self.compute_s.append(dt)
             self.n_processed += 1
