@@ -95,6 +95,38 @@ def test_a_larger_region_of_the_colour_at_that_place_drops_the_tentative_match()
     assert _run(script).best() is not None
 
 
+def test_a_same_sized_view_classed_another_shape_supports_a_tentative_match():
+    """A thin neck's shape class flips between frames: a same-sized WRONG_SHAPE view from
+    another camera position confirms a candidate a TENTATIVE view started (and is accepted);
+    WRONG_SHAPE views alone never do, nor does one showing less than support_completeness."""
+    moved = CAM0 + [0.0, 0.10, 0.0]
+    boxy = _det(1.0, moved, SLICE, Verdict.WRONG_SHAPE)
+    buf = _run({0.0: (_det(0.0, CAM0, SLICE),), 1.0: (boxy,)})
+    assert buf.best() is not None and buf.best().detection.t == 1.0 and buf.best().detection.shape == "box"
+    alone = _run({0.0: (_det(0.0, CAM0, SLICE, Verdict.WRONG_SHAPE),), 1.0: (boxy,)})
+    assert alone.best() is None and not alone.confirmer.candidates[0].matched
+    high = BufferConfig(threaded=False, confirm=ConfirmConfig(support_completeness=0.5))  # the views show 0.33
+    assert _run({0.0: (_det(0.0, CAM0, SLICE),), 1.0: (boxy,)}, config=high).best() is None
+
+
+def test_a_lone_tentative_match_nothing_contradicts_is_accepted_after_the_wait():
+    """Seen once (the severe levels' neck can be seen from one place only): accepted at the
+    first frame accept_after_s (30 s) after it, with that frame's time; never when a larger
+    region of the colour covered it meanwhile, nor with accept_after_s=None."""
+    script = {0.0: (_det(0.0, CAM0, SLICE),)}
+    buf = _run(script, times=[0.0, 10.0, 29.0])
+    assert buf.best() is None
+    buf = _run(script, times=[0.0, 10.0, 31.0])
+    best = buf.best()
+    assert best is not None and best.detection.t == 31.0 and best.observation.t == 0.0
+    assert best.detection.verdict is Verdict.ACCEPTED and buf.confirmer.confirmed == 1
+    book = _face(PLACE + [0.0, 0.06, 0.0], 0.20, 0.038, n=40)
+    vetoed = _run({**script, 5.0: (_det(5.0, CAM0, book, Verdict.WRONG_SIZE),)}, times=[0.0, 5.0, 31.0])
+    assert vetoed.best() is None
+    never = BufferConfig(threaded=False, confirm=ConfirmConfig(accept_after_s=None))
+    assert _run(script, times=[0.0, 10.0, 100.0], config=never).best() is None
+
+
 def test_views_that_together_are_larger_than_the_query_are_not_a_confirmation():
     moved = CAM0 + [0.0, 0.10, 0.0]
     left = _face(PLACE + [0.0, -0.03, 0.0], 0.05, 0.036)
@@ -125,7 +157,8 @@ def test_most_centred_choice_holds_among_accepted_ones():
 
 def test_bad_confirm_config_values_are_refused():
     for kw in ({"baseline_m": -0.1}, {"baseline_m": 2.0}, {"radius": 0.0}, {"size_tolerance": -1.0},
-               {"overlap_m": 0.0}, {"max_points": 5}, {"baseline_m": True}):
+               {"overlap_m": 0.0}, {"max_points": 5}, {"baseline_m": True}, {"accept_after_s": 0.0},
+               {"accept_after_s": "30"}, {"support_completeness": 1.5}):
         name = next(iter(kw))
         with pytest.raises(CompassInputError, match=name):
             ConfirmConfig(**kw)
