@@ -27,8 +27,8 @@
 * find_only: no GRASP state (the trial ends at FOUND), as `compass run --find-only`.
 * find_only_old: find_only with a match accepted from one frame however little of it shows
   (`DetectorConfig.confirm_completeness=None`, the rule until 2026-11-24's third session; the
-  default since then confirms a match showing < 60 % of the query from a second camera position,
-  `perception.confirm`).
+  default since then holds a match showing < 60 % of the query TENTATIVE until a second camera
+  position confirms it or 30 s pass with nothing contradicting it, `perception.confirm`).
 * find_only_border075: find_only with the detector's former rule at the image border (a region
   cut by the border accepted when 75 % of the object shows).
 * former_defaults: the grasp stage's defaults until 2026-11-24's second session: no near-field
