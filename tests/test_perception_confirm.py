@@ -127,6 +127,20 @@ def test_a_lone_tentative_match_nothing_contradicts_is_accepted_after_the_wait()
     assert _run(script, times=[0.0, 10.0, 100.0], config=never).best() is None
 
 
+def test_when_no_view_is_left_a_waiting_tentative_match_is_accepted_at_once():
+    """The exploration stopped (`DetectionBuffer.accept_waiting`, called by the trial machine):
+    a tentative match nothing vetoed is accepted then, found at that time; a vetoed one is not;
+    with no match waiting nothing is."""
+    buf = _run({0.0: (_det(0.0, CAM0, SLICE),)}, times=[0.0, 5.0])
+    assert buf.best() is None
+    found = buf.accept_waiting(6.5)
+    assert found is not None and found.detection.t == 6.5 and found.detection.verdict is Verdict.ACCEPTED
+    book = _face(PLACE + [0.0, 0.06, 0.0], 0.20, 0.038, n=40)
+    vetoed = _run({0.0: (_det(0.0, CAM0, SLICE),), 5.0: (_det(5.0, CAM0, book, Verdict.WRONG_SIZE),)})
+    assert vetoed.accept_waiting(6.5) is None
+    assert _run({0.0: ()}).accept_waiting(1.0) is None
+
+
 def test_views_that_together_are_larger_than_the_query_are_not_a_confirmation():
     moved = CAM0 + [0.0, 0.10, 0.0]
     left = _face(PLACE + [0.0, -0.03, 0.0], 0.05, 0.036)

@@ -158,6 +158,15 @@ class DetectionBuffer:
             entries = [BufferedDetection(d, o) for o, dets in self._window for d in dets if d.accepted]
         return most_centred(entries)
 
+    def accept_waiting(self, t_now: float) -> BufferedDetection | None:
+        """When no further view can be had (the exploration stopped at simulated time t_now
+        [s]): every tentative match nothing vetoed is accepted now (`Confirmer.due(now=True)`,
+        found at t_now); returns `best()`. Call after `sync`."""
+        late = self.confirmer.due(float(t_now), now=True)
+        with self._lock:
+            self._window.extend((o, (d,)) for d, o in late)
+        return self.best()
+
     def take_hints(self) -> np.ndarray:
         """Centroids (N, 3) [m] of PARTIAL and (not yet confirmed) TENTATIVE detections since
         the last call (low-confidence matches of the query: points of interest for exploration)."""

@@ -36,6 +36,11 @@ frames, and the camera positions that saw them) and, frame by frame, in order:
   without this some finds are lost; a larger object of that colour is usually seen larger
   within that time (None: never accepted this way).
 
+When the exploration stops (no reachable view, nothing left to explore) before that, the
+trial accepts what is waiting (`DetectionBuffer.accept_waiting`): no confirming view can be
+had any more (seed 5151 level 2 scene 0: IG, which ignores points of interest, stopped 30 s
+after its only tentative view and lost the find without this).
+
 A vetoed candidate is kept so that later tentative matches at its place are never confirmed.
 Matches seen whole (ACCEPTED by the detector) are not touched. Everything depends on the
 frames' order and content only, so a seed still gives one trial.
@@ -130,14 +135,17 @@ class Confirmer:
                 self._contradict(d)
         return tuple(self._view(d, obs) if self._is_view(d) else d for d in detections)
 
-    def due(self, t: float) -> list[tuple[Detection, object]]:
+    def due(self, t: float, now: bool = False) -> list[tuple[Detection, object]]:
         """(ACCEPTED detection, its observation) of each candidate whose first tentative view
-        is at least accept_after_s before t [s] and that nothing vetoed; the detection's time
-        is t (each candidate is accepted once)."""
+        is at least accept_after_s before t [s] (now=True: whatever its age, when no view to
+        confirm it can be had) and that nothing vetoed; the detection's time is t (each
+        candidate is accepted once)."""
         wait = self.config.accept_after_s
         out = []
         for c in self.candidates:
-            if wait is None or c.vetoed or c.accepted or c.last is None or t - c.t_matched < wait:
+            if c.vetoed or c.accepted or c.last is None:
+                continue
+            if not now and (wait is None or t - c.t_matched < wait):
                 continue
             c.accepted = True
             self.confirmed += 1

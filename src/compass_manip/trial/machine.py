@@ -130,7 +130,12 @@ class TrialMachine:
             self.metrics.decision(d)
             self.observer.decision(self.t, d, self.method)
             self.t += d.compute_s if config.clock.measured else config.clock.planning_charge_s
-            if d.stop is not None:
+            if d.stop is not None:  # no view left: a tentative match waiting for one is accepted
+                found = self.buffer.accept_waiting(self.t)
+                if found is not None:
+                    self.observer.detection(self.t, found)
+                    self._enter(TrialState.FOUND)
+                    break
                 failure = _STOP_TO_FAILURE[d.stop]
                 break
             if self._move(d.path, ex_cfg, render_seg):
