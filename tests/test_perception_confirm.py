@@ -213,3 +213,56 @@ def test_rendered_partly_hidden_target_is_confirmed_from_a_second_camera_positio
         assert (buf.best() is not None) is found
         if found:
             assert buf.best().detection.t == 0.3
+
+
+class _Frame:
+    def __init__(self, t):
+        self.t, self.T_world_cam = t, np.eye(4)
+
+    def observation(self):
+        return _obs(self.t)
+
+
+class _World:
+    q = np.zeros(7)
+
+    def render(self, q, t=0.0, rgb=True, seg=False):
+        return _Frame(t)
+
+
+class _Stopping:
+    """A method that stops at its first decision (nothing left to explore)."""
+    occupancy = None
+
+    def observe(self, obs):
+        pass
+
+    def add_points_of_interest(self, points):
+        pass
+
+    def decide(self):
+        from compass_manip.exploration.base import Decision, Phase, StopReason
+        return Decision(None, StopReason.EXPLORED, Phase.EXPLORE)
+
+
+class _Metrics:
+    def explored_fraction(self, t, occ):
+        pass
+
+    def decision(self, d):
+        pass
+
+
+@pytest.mark.parametrize("verdict, found", [(Verdict.TENTATIVE, True), (Verdict.PARTIAL, False)])
+def test_the_trial_machine_accepts_a_waiting_tentative_match_when_the_exploration_stops(verdict, found):
+    from compass_manip.trial.config import TrialConfig
+    from compass_manip.trial.machine import TrialMachine, TrialState
+    from compass_manip.trial.result import TrialFailure
+
+    buf = DetectionBuffer(Scripted({0.0: (_det(0.0, CAM0, SLICE, verdict),)}), QUERY, BufferConfig(threaded=False))
+    out = TrialMachine(_World(), _Stopping(), buf, _Metrics(), TrialConfig()).run()
+    if found:
+        assert out.failure is None and out.found.detection.verdict is Verdict.ACCEPTED
+        assert out.t_found == out.t_end and TrialState.FOUND in out.states
+    else:
+        assert out.failure is TrialFailure.TARGET_NOT_FOUND and out.found is None
