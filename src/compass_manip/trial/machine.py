@@ -12,7 +12,9 @@ trial; the measured compute time as an option). Camera frames along every trajec
 (keyframes or a fixed rate, `SensingConfig`) and one at the end of each motion feed the
 method's map and the detection buffer. Detection runs on its own thread while the arm moves, the map integrates and the method decides; the
 machine waits for it only at decision points, where it reads the buffer's most-centred
-accepted detection (and hands partial matches to the method as points of interest).
+accepted detection (and hands partial matches to the method as points of interest); when the
+method stops (no reachable view, nothing left to explore) a tentative match still waiting for
+a confirming view is accepted (`DetectionBuffer.accept_waiting`, `perception.confirm`).
 The target counts as found at the time stamp of the frame holding that detection.
 """
 from __future__ import annotations
