@@ -4,8 +4,9 @@ Runs one find-only COMPASS trial with the detection buffer replaced by a recordi
 prints, per processed frame with a region of the query's colour: the frame's time [s], the
 camera position [m], and per region its verdict, shape as seen, extents [cm], completeness,
 pixel count, box, centroid [m] and the scene object most of its points lie in (ground truth:
-each object's bounding box grown by 1.5 cm; '-' for none). Also whether the buffer held a
-TENTATIVE match at that time and the trial's end. Variants: `--variant default` (the
+each object's bounding box grown by 1.5 cm; '-' for none; CONFIRMED marks a detection accepted
+by `perception.confirm`), then the places of tentative matches at the end (frames, the span of
+their cameras, vetoed or not) and the trial's end. Variants: `--variant default` (the
 trial's `TrialConfig()`), `old` (`trial_variants.find_only_old_config()`: one frame accepts),
 `strict` (the detector accepts only whole views, min_completeness 0.99: to see which later
 frames see the place of a first-frame match when nothing is accepted there).
