@@ -144,7 +144,7 @@ def test_when_no_view_is_left_a_waiting_tentative_match_is_accepted_at_once():
 def test_views_that_together_are_larger_than_the_query_are_not_a_confirmation():
     moved = CAM0 + [0.0, 0.10, 0.0]
     left = _face(PLACE + [0.0, -0.03, 0.0], 0.05, 0.036)
-    right = _face(PLACE + [0.0, 0.03, 0.0], 0.05, 0.036)  # 11 cm wide together: more than the query's 7.9 cm diagonal + 20 % + 1 cm
+    right = _face(PLACE + [0.0, 0.03, 0.0], 0.05, 0.036)  # 11 cm wide together: > 7.9 cm diagonal + 20 % + 1 cm
     buf = _run({0.0: (_det(0.0, CAM0, left),), 1.0: (_det(1.0, moved, right),)})
     assert buf.best() is None and buf.confirmer.candidates[0].vetoed
 

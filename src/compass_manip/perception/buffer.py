@@ -8,9 +8,11 @@ is nearest the image centre (the paper's S_obs = -||p_bbox - p_center||); ties g
 later observation. TENTATIVE detections (matches not clearly whole, `detector.Verdict`) are
 never accepted from one frame: `confirm.Confirmer` turns one ACCEPTED when a later frame from
 another camera position confirms it, or when nothing confirmed nor contradicted it for
-`ConfirmConfig.accept_after_s` of simulated time (`BufferConfig.confirm`); until then its
-centroid is a point of interest like a PARTIAL one's. `sync()` waits until every pushed observation has been processed: the
-trial calls it at decision points so that runs are reproducible while detection still runs
+`ConfirmConfig.accept_after_s` of simulated time (`BufferConfig.confirm`; such a late
+acceptance enters the window with the observation of the match's latest view), or when the
+exploration stops (`accept_waiting`); until then its centroid is a point of interest like a
+PARTIAL one's. `sync()` waits until every pushed observation has been processed: the trial
+calls it at decision points so that runs are reproducible while detection still runs
 concurrently with the motion, mapping and decisions in between.
 
 A detector rate in simulated time (`BufferConfig.min_period_s` > 0) models a detector that

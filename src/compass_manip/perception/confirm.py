@@ -90,7 +90,8 @@ class ConfirmConfig:
         a = self.accept_after_s
         if a is not None and (isinstance(a, bool) or not isinstance(a, (int, float)) or not 0.0 < a <= 3600.0):
             raise CompassInputError(f"confirm accept_after_s {a!r} is not allowed; use 0..3600 s or None")
-        if isinstance(self.max_points, bool) or not isinstance(self.max_points, int) or not 10 <= self.max_points <= 100000:
+        n = self.max_points
+        if isinstance(n, bool) or not isinstance(n, int) or not 10 <= n <= 100000:
             raise CompassInputError(f"confirm max_points {self.max_points!r} is not allowed; use 10..100000")
 
 
@@ -191,7 +192,8 @@ class Confirmer:
             if not self.fits(fused):
                 c.vetoed = True
                 continue
-            if (matched or c.matched) and max(float(np.linalg.norm(cam - k)) for k in c.cameras) >= self.config.baseline_m:
+            baseline = max(float(np.linalg.norm(cam - k)) for k in c.cameras)
+            if (matched or c.matched) and baseline >= self.config.baseline_m:
                 self.confirmed += 1
                 return replace(d, verdict=Verdict.ACCEPTED)
         if near:
