@@ -1,6 +1,8 @@
 """Confirmation of TENTATIVE matches (perception/confirm.py) through the detection buffer:
-never accepted from one frame, accepted from a second camera position, dropped when a larger
-region of the query's colour covers it; whole matches accepted at once as before."""
+never accepted from one frame, accepted from a second camera position (also by a same-sized
+view classed another shape), dropped when a larger region of the query's colour covers it,
+accepted after the wait or when the exploration stops (the trial machine); whole matches
+accepted at once as before; the most-centred choice among accepted ones; configs checked."""
 import numpy as np
 import pytest
 
