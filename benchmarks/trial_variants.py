@@ -25,6 +25,10 @@
   assumption took as free (`VerifyConfig(assumed_only=True, refuse=False)`, branch e2e4).
 * grasp_look_outward: as grasp_look_assumed, a third of the look directions away from the base.
 * find_only: no GRASP state (the trial ends at FOUND), as `compass run --find-only`.
+* find_only_old: find_only with a match accepted from one frame however little of it shows
+  (`DetectorConfig.confirm_completeness=None`, the rule until 2026-11-24's third session; the
+  default since then holds a match showing < 60 % of the query TENTATIVE until a second camera
+  position confirms it or 30 s pass with nothing contradicting it, `perception.confirm`).
 * find_only_border075: find_only with the detector's former rule at the image border (a region
   cut by the border accepted when 75 % of the object shows).
 * former_defaults: the grasp stage's defaults until 2026-11-24's second session: no near-field
@@ -124,6 +128,14 @@ def find_only_config() -> TrialConfig:
 
 def find_only(spec) -> tuple[dict, dict]:
     return _run(spec, find_only_config())
+
+
+def find_only_old_config() -> TrialConfig:
+    return TrialConfig(detector=DetectorConfig(confirm_completeness=None), grasp=GraspTrialConfig(enabled=False))
+
+
+def find_only_old(spec) -> tuple[dict, dict]:
+    return _run(spec, find_only_old_config())
 
 
 def grasp_inspect_halo_config() -> TrialConfig:
@@ -277,7 +289,7 @@ def find_only_border075_config() -> TrialConfig:
     """find_only with the detector's former rule at the image border: a region cut by the border
     is accepted when 75 % of the query's height and width show (`DetectorConfig.border_completeness`,
     None by default since 2026-11-24: never accepted there)."""
-    return replace(find_only_config(), detector=DetectorConfig(border_completeness=0.75))
+    return replace(find_only_config(), detector=DetectorConfig(border_completeness=0.75, confirm_completeness=None))
 
 
 def find_only_border075(spec) -> tuple[dict, dict]:

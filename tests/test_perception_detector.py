@@ -164,19 +164,32 @@ def test_a_flat_strip_of_a_big_box_whose_normals_look_round_is_not_the_can(monke
     assert loose[0].accepted  # without the relief check it would have been taken for the can
 
 
-@pytest.mark.parametrize("board_h, accepted", [(0.10, True), (0.12, False)])
-def test_a_partly_hidden_target_is_accepted_from_30_percent_of_its_height(detector, board_h, accepted):
-    """A 16 cm red box behind a grey board: with 37 % of its height showing it is accepted
-    (a good view sees 30 % of a target), with 24 % it stays partial; the old 60 % rule kept
-    the first partial too."""
+@pytest.mark.parametrize("board_h, matched", [(0.10, True), (0.12, False)])
+def test_a_partly_hidden_target_matches_from_30_percent_of_its_height(detector, board_h, matched):
+    """A 16 cm red box behind a grey board: with 37 % of its height showing it matches (a good
+    view sees 30 % of a target), with 24 % it stays partial; the old 60 % rule kept the first
+    partial too. A match this incomplete is TENTATIVE (`confirm_completeness`, 0.6): accepted
+    only once another frame confirms it (`perception.confirm`); with confirm_completeness=None
+    (the rule until 2026-11-24) it was accepted at once."""
     tall = Primitive("target", "box", (0.025, 0.025, 0.08), (0.68, 0.0, FLOOR_Z + 0.08), 0.3, RED)
     board = Primitive("board", "box", (0.005, 0.08, board_h / 2), (0.64, 0.0, FLOOR_Z + board_h / 2), 0.0, GREY)
     frame, _ = _observe(_scene([board], target=tall))
     dets = detector(frame.observation(), target_query(tall))
     assert len(dets) == 1 and dets[0].shape == "box"
-    assert dets[0].verdict is (Verdict.ACCEPTED if accepted else Verdict.PARTIAL)
+    assert dets[0].verdict is (Verdict.TENTATIVE if matched else Verdict.PARTIAL) and not dets[0].accepted
+    at_once = AppearanceDetector(DetectorConfig(confirm_completeness=None))(frame.observation(), target_query(tall))
+    assert at_once[0].verdict is (Verdict.ACCEPTED if matched else Verdict.PARTIAL)
     strict = AppearanceDetector(DetectorConfig(min_completeness=0.6))(frame.observation(), target_query(tall))
     assert strict[0].verdict is Verdict.PARTIAL
+
+
+def test_confirm_completeness_is_validated():
+    from compass_manip.errors import CompassInputError
+    for bad in (0.2, 1.2, True, "0.6"):  # 0.2: below min_completeness (0.3)
+        with pytest.raises(CompassInputError, match="confirm_completeness"):
+            DetectorConfig(confirm_completeness=bad)
+    assert DetectorConfig(confirm_completeness=None).confirm_completeness is None
+    assert DetectorConfig(min_completeness=0.5, confirm_completeness=0.5).confirm_completeness == 0.5
 
 
 def test_self_masked_detector_skips_the_mask_only_where_nothing_can_be_found(detector, monkeypatch):

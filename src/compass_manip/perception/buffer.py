@@ -5,8 +5,14 @@ once; a worker thread runs the detector on each observation in order, so detecti
 stalls motion. The buffer keeps the detections of the last `size` observations (a sliding
 window). `best()` returns, among the window's ACCEPTED detections, the one whose box centre
 is nearest the image centre (the paper's S_obs = -||p_bbox - p_center||); ties go to the
-later observation. `sync()` waits until every pushed observation has been processed: the
-trial calls it at decision points so that runs are reproducible while detection still runs
+later observation. TENTATIVE detections (matches not clearly whole, `detector.Verdict`) are
+never accepted from one frame: `confirm.Confirmer` turns one ACCEPTED when a later frame from
+another camera position confirms it, or when nothing confirmed nor contradicted it for
+`ConfirmConfig.accept_after_s` of simulated time (`BufferConfig.confirm`; such a late
+acceptance enters the window with the observation of the match's latest view), or when the
+exploration stops (`accept_waiting`); until then its centroid is a point of interest like a
+PARTIAL one's. `sync()` waits until every pushed observation has been processed: the trial
+calls it at decision points so that runs are reproducible while detection still runs
 concurrently with the motion, mapping and decisions in between.
 
 A detector rate in simulated time (`BufferConfig.min_period_s` > 0) models a detector that
@@ -24,13 +30,14 @@ import queue
 import threading
 import time
 from collections import deque
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from ..errors import CompassInputError
 from ..task import TargetQuery
 from ..types import Observation
+from .confirm import Confirmer, ConfirmConfig
 from .detector import Detection, Detector, Verdict
 
 
@@ -39,11 +46,13 @@ class BufferConfig:
     """size: observations in the sliding window (k + 1 in the paper); threaded: run the
     detector on a worker thread (False: in push, for debugging); min_period_s [s] of
     simulated time between the starts of two frames' detection (0: every frame is
-    processed; see the module docstring)."""
+    processed; see the module docstring); confirm: how TENTATIVE detections are confirmed
+    (`confirm.ConfirmConfig`)."""
 
     size: int = 8
     threaded: bool = True
     min_period_s: float = 0.0
+    confirm: ConfirmConfig = field(default_factory=ConfirmConfig)
 
     def __post_init__(self) -> None:
         if not 1 <= self.size <= 1000:
@@ -51,6 +60,8 @@ class BufferConfig:
         if not (isinstance(self.min_period_s, (int, float)) and 0.0 <= self.min_period_s <= 10.0):
             raise CompassInputError(f"min_period_s {self.min_period_s!r} is not allowed; use 0..10 s "
                                     "(0: detect on every frame)")
+        if not isinstance(self.confirm, ConfirmConfig):
+            raise CompassInputError(f"BufferConfig.confirm = {self.confirm!r:.40} is not allowed; use a ConfirmConfig")
 
 
 @dataclass(frozen=True, eq=False)
@@ -82,6 +93,7 @@ class DetectionBuffer:
         self._lock = threading.Lock()
         self._queue: queue.Queue = queue.Queue()
         self._hints: list[np.ndarray] = []
+        self.confirmer = Confirmer(query, self.config.confirm)
         self._error: BaseException | None = None
         self.compute_s: list[float] = []  # detector time per observation [s]
         self.n_processed = 0
@@ -148,9 +160,18 @@ class DetectionBuffer:
             entries = [BufferedDetection(d, o) for o, dets in self._window for d in dets if d.accepted]
         return most_centred(entries)
 
+    def accept_waiting(self, t_now: float) -> BufferedDetection | None:
+        """When no further view can be had (the exploration stopped at simulated time t_now
+        [s]): every tentative match nothing vetoed is accepted now (`Confirmer.due(now=True)`,
+        found at t_now); returns `best()`. Call after `sync`."""
+        late = self.confirmer.due(float(t_now), now=True)
+        with self._lock:
+            self._window.extend((o, (d,)) for d, o in late)
+        return self.best()
+
     def take_hints(self) -> np.ndarray:
-        """Centroids (N, 3) [m] of PARTIAL detections since the last call (low-confidence
-        matches of the query: points of interest for exploration)."""
+        """Centroids (N, 3) [m] of PARTIAL and (not yet confirmed) TENTATIVE detections since
+        the last call (low-confidence matches of the query: points of interest for exploration)."""
         with self._lock:
             h, self._hints = self._hints, []
         return np.array(h).reshape(-1, 3)
@@ -171,10 +192,12 @@ class DetectionBuffer:
 
     def _process(self, obs: Observation) -> None:
         t0 = time.perf_counter()
-        dets = tuple(self.detector(obs, self.query))
+        dets = self.confirmer(tuple(self.detector(obs, self.query)), obs)
+        late = self.confirmer.due(float(obs.t))  # tentative matches accepted after waiting
         dt = time.perf_counter() - t0
         with self._lock:
             self._window.append((obs, dets))
-            self._hints.extend(d.centroid_world for d in dets if d.verdict is Verdict.PARTIAL)
+            self._window.extend((o, (d,)) for d, o in late)
+            self._hints.extend(d.centroid_world for d in dets if d.verdict in (Verdict.PARTIAL, Verdict.TENTATIVE))
             self.compute_s.append(dt)
             self.n_processed += 1

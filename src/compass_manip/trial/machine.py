@@ -12,7 +12,9 @@ trial; the measured compute time as an option). Camera frames along every trajec
 (keyframes or a fixed rate, `SensingConfig`) and one at the end of each motion feed the
 method's map and the detection buffer. Detection runs on its own thread while the arm moves, the map integrates and the method decides; the
 machine waits for it only at decision points, where it reads the buffer's most-centred
-accepted detection (and hands partial matches to the method as points of interest).
+accepted detection (and hands partial matches to the method as points of interest); when the
+method stops (no reachable view, nothing left to explore) a tentative match still waiting for
+a confirming view is accepted (`DetectionBuffer.accept_waiting`, `perception.confirm`).
 The target counts as found at the time stamp of the frame holding that detection.
 """
 from __future__ import annotations
@@ -130,7 +132,12 @@ class TrialMachine:
             self.metrics.decision(d)
             self.observer.decision(self.t, d, self.method)
             self.t += d.compute_s if config.clock.measured else config.clock.planning_charge_s
-            if d.stop is not None:
+            if d.stop is not None:  # no view left: a tentative match waiting for one is accepted
+                found = self.buffer.accept_waiting(self.t)
+                if found is not None:
+                    self.observer.detection(self.t, found)
+                    self._enter(TrialState.FOUND)
+                    break
                 failure = _STOP_TO_FAILURE[d.stop]
                 break
             if self._move(d.path, ex_cfg, render_seg):
