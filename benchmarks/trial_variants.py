@@ -39,6 +39,8 @@
   second session (`TrialConfig()`), kept so the comparison can be re-run whatever the default.
 * scan_yaw09: the defaults with the near-body volume within +-0.9 rad (docs/grasping_log.md,
   "A point between on the dial").
+* scan_survey: the defaults with the scan's views checked and planned with the grasp stage's own
+  near-body assumption (`TrialScanConfig.assumed_free`; docs/grasping_log.md, "IG and COMPASS at GRASP").
 """
 from __future__ import annotations
 
@@ -292,3 +294,15 @@ def scan_yaw09_config() -> TrialConfig:
 
 def scan_yaw09(spec) -> tuple[dict, dict]:
     return _run(spec, scan_yaw09_config())
+
+
+def scan_survey_config() -> TrialConfig:
+    """The defaults with the near-field scan's views checked and planned with the GRASP stage's own
+    near-body assumption (`TrialScanConfig.assumed_free`, `grasp_scan.survey_checker`): the scan's
+    arm may stand where the grasp's arm would go, and looks beside and in front of the base."""
+    g = GraspTrialConfig()
+    return TrialConfig(grasp=replace(g, scan=replace(g.scan, assumed_free=True)))
+
+
+def scan_survey(spec) -> tuple[dict, dict]:
+    return _run(spec, scan_survey_config())

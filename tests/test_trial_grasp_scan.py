@@ -264,3 +264,44 @@ def test_grasp_map_integrates_its_frames_when_read_the_same_map_as_on_arrival():
         assert np.count_nonzero(gm.occ.state != VoxelState.UNKNOWN) > 1000
     finally:
         world.close()
+
+
+def test_survey_checker_adds_the_grasps_assumed_space_to_the_methods_own_and_nothing_else():
+    from compass_manip.exploration.compass import CompassConfig, near_field_world
+    from compass_manip.exploration.world_model import WorldModel
+    from compass_manip.sim.grasp_only import near_body_unknown
+    from compass_manip.sim.near_field import NearFieldScanConfig, scan_candidates
+    from compass_manip.trial.grasp_scan import survey_checker
+
+    world = empty_cabinet_world()
+    try:
+        task, q_home = world.scene.task(), np.asarray(world.robot.q_home)
+        wm = WorldModel(q_home, near_field_world(CompassConfig()), world.robot, task)  # COMPASS's rules
+        wm.observe(world.render(q_home, rgb=False, seg=False).observation())
+        Q = scan_candidates(q_home, 300, np.random.default_rng(3), NearFieldScanConfig(yaw_range=0.6))
+        own = np.asarray(wm.checker.are_valid(Q), dtype=bool)
+        none = np.asarray(survey_checker(wm, lambda occ: np.zeros(occ.shape, bool)).are_valid(Q), dtype=bool)
+        near = lambda occ: near_body_unknown(occ, wm.spheres, q_home, 0.6)  # noqa: E731
+        survey = np.asarray(survey_checker(wm, near).are_valid(Q), dtype=bool)
+        wm.occ.state[near(wm.occ)] = VoxelState.OCCUPIED  # the same space seen occupied: never free
+        blocked = np.asarray(survey_checker(wm, near).are_valid(Q), dtype=bool)
+    finally:
+        world.close()
+    assert np.array_equal(none, own)  # nothing assumed: the method's own verdicts
+    assert np.all(survey | ~own) and survey.sum() >= own.sum() + 5  # more, and every one the method takes
+    assert not blocked.any()
+
+
+def test_scan_uses_the_checker_it_is_given():
+    world = empty_cabinet_world()
+    try:
+        task, wm, q_view, view = observed_view(world)
+        gm = _fed_grasp_map(world, q_view, n=2)
+        refuse = SimpleNamespace(are_valid=lambda Q: np.zeros(len(Q), bool))
+        s = NearFieldScanner(lambda: gm.occ, wm, world.camera.K, (world.camera.width, world.camera.height),
+                             world.robot.q_home, world.robot.base_pos, TrialScanConfig(), np.random.default_rng(1),
+                             checker_of=lambda: refuse)
+        out = s(q_view, None)
+    finally:
+        world.close()
+    assert out.planned is False and s.views == 0 and s.stopped == "no valid candidate"

@@ -21,9 +21,16 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.ndimage import distance_transform_edt
 
 from ..errors import CompassInputError
+
 from ..exploration.nfa import safe_box_map
+from ..exploration.world_model import method_safe_voxels
+from ..mapping.distance import unsafe_mask
+from ..mapping.occupancy import VoxelState
+from ..motion.primitives import DistanceGrid
+from ..motion.validity import ValidityChecker
 from ..mapping.infogain import info_gain_batch
 from ..motion.planner import DEFAULT_MAX_CHECKS, PlannerConfig, plan
 from ..robot.model import Q_MAX, Q_MIN
@@ -39,7 +46,12 @@ class TrialScanConfig:
     of the box around the target's points whose unknown voxels count too; way_candidates
     configurations next to the way moved (joints 1-4 by way_sigma [rad], 5-7 by wrist_sigma
     [rad], normal); min_gain [voxels]
-    the best view must see to be taken; n_goals best views handed to the planner."""
+    the best view must see to be taken; n_goals best views handed to the planner; assumed_free:
+    the views are checked and planned on the method's checker with the unknown space the GRASP
+    stage itself takes as free also free (the near-body assumption, `grasp_stage.assumed_unknown_free`;
+    `survey_checker`): the scan's arm may stand where the grasp's arm would go anyway, and its
+    camera then sees beside and in front of the base, which no view valid for the method alone
+    sees (docs/grasping_log.md, "IG and COMPASS at GRASP")."""
 
     max_views: int = 8
     min_gain: int = 40
@@ -50,6 +62,7 @@ class TrialScanConfig:
     target_margin: float = 0.2
     candidates: NearFieldScanConfig = field(default_factory=NearFieldScanConfig)
     planner: PlannerConfig = field(default_factory=lambda: PlannerConfig(max_checks=2 * DEFAULT_MAX_CHECKS))
+    assumed_free: bool = False
 
     def __post_init__(self) -> None:
         if isinstance(self.max_views, bool) or not isinstance(self.max_views, int) or not 0 <= self.max_views <= 20:
@@ -64,21 +77,37 @@ class TrialScanConfig:
                                     "use 0..1 and 0..3")
 
 
+def survey_checker(wm, free_of) -> ValidityChecker:
+    """The method's validity checker (world model `wm`: occ, swept, assumed_free, config,
+    spheres) on a field where the unknown voxels `free_of(occ)` ((nx, ny, nz) bool on wm.occ's
+    grid) count as free besides the method's own safe space (voxels seen occupied never do)."""
+    occ = wm.occ
+    safe = method_safe_voxels(occ, wm.swept, wm.assumed_free, wm.config.obstacle_halo)
+    safe |= np.asarray(free_of(occ), dtype=bool) & (occ.state == VoxelState.UNKNOWN)
+    unsafe = unsafe_mask(occ, safe_voxels=safe)
+    dist = distance_transform_edt(~unsafe).astype(np.float32) * np.float32(occ.resolution)
+    return ValidityChecker(wm.spheres, config=wm.config.validity).with_grid(
+        DistanceGrid(dist, occ.grid_min, occ.resolution))
+
+
 class NearFieldScanner:
     """The scan (module doc) as an INSPECT step: call with (q_current (7,) [rad], detection)
     -> `trial.inspect.InspectPlan`. occ_of(): the grasp's map now; wm: the method's world
     model (checker, kin); K (3,3) and image_size (w, h) of the camera; q_home (7,) [rad];
     base_pos (3,) [m]; then: the INSPECT step called once the scan has ended (None: stop);
-    way_of(): (m, 7) [rad] configurations the arm moved through (None: none).
+    way_of(): (m, 7) [rad] configurations the arm moved through (None: none); checker_of():
+    the validity checker the scan's candidates and plans use (None: `wm.checker`; with
+    `TrialScanConfig.assumed_free` the runner passes `survey_checker`'s).
     `views` counts the scan plans returned, `stopped` says why the scan ended."""
 
     def __init__(self, occ_of, wm, K: np.ndarray, image_size: tuple[int, int], q_home: np.ndarray,
                  base_pos: np.ndarray, config: TrialScanConfig, rng: np.random.Generator, then=None,
-                 way_of=None) -> None:
+                 way_of=None, checker_of=None) -> None:
         if not isinstance(rng, np.random.Generator):
             raise CompassInputError(f"rng {rng!r:.40} is not allowed; give an explicit np.random.Generator")
         self.occ_of, self.wm, self.then, self.rng, self.config = occ_of, wm, then, rng, config
         self.way_of = way_of
+        self.checker_of = checker_of
         self.K, self.image_size = np.asarray(K, dtype=np.float64), tuple(image_size)
         self.q_home = np.asarray(q_home, dtype=np.float64)
         self.base = np.asarray(base_pos, dtype=np.float64)
@@ -90,7 +119,8 @@ class NearFieldScanner:
         t0 = time.perf_counter()
         c = self.config.candidates
         Q = np.vstack([scan_candidates(self.q_home, c.n_candidates, self.rng, c), self.near_way(q_current)])
-        Q = Q[np.asarray(self.wm.checker.are_valid(Q), dtype=bool)]
+        checker = self.wm.checker if self.checker_of is None else self.checker_of()
+        Q = Q[np.asarray(checker.are_valid(Q), dtype=bool)]
         if len(Q) == 0:
             self.stopped = "no valid candidate"
             return None
@@ -109,7 +139,7 @@ class NearFieldScanner:
         if len(order) == 0:
             self.stopped = f"best gain {int(gains.max())} < {self.config.min_gain}"
             return None
-        res = plan(np.asarray(q_current, dtype=np.float64), Q[order], self.wm.checker, self.config.planner, self.rng)
+        res = plan(np.asarray(q_current, dtype=np.float64), Q[order], checker, self.config.planner, self.rng)
         if not res.success:
             self.stopped = "no path"
             return None
