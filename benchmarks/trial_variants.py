@@ -41,6 +41,8 @@
   "A point between on the dial").
 * scan_survey: the defaults with the scan's views checked and planned with the grasp stage's own
   near-body assumption (`TrialScanConfig.assumed_free`; docs/grasping_log.md, "IG and COMPASS at GRASP").
+* scan_back: the defaults with 64 scan candidates a step looking back at the elbow's band beside
+  the base from in front of it (`TrialScanConfig.n_back`), valid for the method's own checker.
 """
 from __future__ import annotations
 
@@ -306,3 +308,14 @@ def scan_survey_config() -> TrialConfig:
 
 def scan_survey(spec) -> tuple[dict, dict]:
     return _run(spec, scan_survey_config())
+
+
+def scan_back_config() -> TrialConfig:
+    """The defaults with 64 scan candidates a step that look back at the elbow's band beside the
+    base from in front of it (`TrialScanConfig.n_back`), valid for the method's own checker."""
+    g = GraspTrialConfig()
+    return TrialConfig(grasp=replace(g, scan=replace(g.scan, n_back=64)))
+
+
+def scan_back(spec) -> tuple[dict, dict]:
+    return _run(spec, scan_back_config())

@@ -305,3 +305,35 @@ def test_scan_uses_the_checker_it_is_given():
     finally:
         world.close()
     assert out.planned is False and s.views == 0 and s.stopped == "no valid candidate"
+
+
+def test_back_candidates_look_back_at_the_unknown_band_beside_the_base_from_in_front():
+    from compass_manip.robot.ik import PandaIK
+    from compass_manip.robot.spheres import panda_sphere_model
+    from compass_manip.trial.grasp_scan import back_candidates
+
+    world = empty_cabinet_world()
+    try:
+        gm = _fed_grasp_map(world, np.asarray(world.robot.q_home), n=1)
+        kin = panda_sphere_model(world.robot).kinematics
+        base, q_home = np.asarray(world.robot.base_pos, float), np.asarray(world.robot.q_home)
+        cfg = TrialScanConfig(n_back=40)
+        Q = back_candidates(gm.occ, base, cfg, PandaIK(kin), q_home, np.random.default_rng(2))
+        T = kin.T_world_cam_batch(Q)
+        none = back_candidates(gm.occ, base, TrialScanConfig(), PandaIK(kin), q_home, np.random.default_rng(2))
+        gm.occ.state[...] = VoxelState.FREE  # nothing unknown in the band: nothing to look at
+        seen = back_candidates(gm.occ, base, cfg, PandaIK(kin), q_home, np.random.default_rng(2))
+    finally:
+        world.close()
+    assert len(Q) >= 5 and len(none) == 0 and len(seen) == 0
+    eye_lo, eye_hi = base + np.asarray(cfg.back_eye[0]), base + np.asarray(cfg.back_eye[1])
+    assert np.all((T[:, :3, 3] >= eye_lo - 1e-3) & (T[:, :3, 3] <= eye_hi + 1e-3))  # in front of the base
+    s = np.linspace(0.25, 0.9, 66)
+    P = T[:, None, :3, 3] + s[None, :, None] * T[:, None, :3, 2]  # along each optical axis
+    (x0, y0, z0), (x1, y1, z1) = cfg.back_band
+    rel = P - base
+    inside = (rel[..., 0] >= x0 - 0.01) & (rel[..., 0] <= x1 + 0.01) & (np.abs(rel[..., 1]) >= y0 - 0.01) \
+        & (np.abs(rel[..., 1]) <= y1 + 0.01) & (rel[..., 2] >= z0 - 0.01) & (rel[..., 2] <= z1 + 0.01)
+    assert np.all(inside.any(axis=1))  # each camera looks at the band beside the base
+    with pytest.raises(CompassInputError, match="n_back"):
+        TrialScanConfig(n_back=-1)

@@ -33,6 +33,8 @@ from ..motion.primitives import DistanceGrid
 from ..motion.validity import ValidityChecker
 from ..mapping.infogain import info_gain_batch
 from ..motion.planner import DEFAULT_MAX_CHECKS, PlannerConfig, plan
+from ..exploration.viewpoints import view_pose
+from ..robot.ik import PandaIK
 from ..robot.model import Q_MAX, Q_MIN
 from ..sim.near_field import NearFieldScanConfig, scan_candidates
 from .inspect import InspectPlan
@@ -51,7 +53,11 @@ class TrialScanConfig:
     stage itself takes as free also free (the near-body assumption, `grasp_stage.assumed_unknown_free`;
     `survey_checker`): the scan's arm may stand where the grasp's arm would go anyway, and its
     camera then sees beside and in front of the base, which no view valid for the method alone
-    sees (docs/grasping_log.md, "IG and COMPASS at GRASP")."""
+    sees (docs/grasping_log.md, "IG and COMPASS at GRASP"); n_back: camera poses a step that look
+    back at the elbow's band beside the base (`back_candidates`: a random unknown voxel of
+    back_band [m], relative to the base, mirrored to either side, seen from a random eye point in
+    back_eye [m] in front of the base), solved by camera IK and kept, like the others, when valid
+    for the scan's checker (0: none)."""
 
     max_views: int = 8
     min_gain: int = 40
@@ -63,6 +69,9 @@ class TrialScanConfig:
     candidates: NearFieldScanConfig = field(default_factory=NearFieldScanConfig)
     planner: PlannerConfig = field(default_factory=lambda: PlannerConfig(max_checks=2 * DEFAULT_MAX_CHECKS))
     assumed_free: bool = False
+    n_back: int = 0
+    back_band: tuple[tuple[float, float, float], tuple[float, float, float]] = ((-0.1, 0.15, 0.3), (0.35, 0.45, 0.8))
+    back_eye: tuple[tuple[float, float, float], tuple[float, float, float]] = ((0.25, -0.35, 0.55), (0.6, 0.35, 1.05))
 
     def __post_init__(self) -> None:
         if isinstance(self.max_views, bool) or not isinstance(self.max_views, int) or not 0 <= self.max_views <= 20:
@@ -70,6 +79,8 @@ class TrialScanConfig:
         if self.min_gain < 0 or not 1 <= self.n_goals <= 100 or not 0 <= self.way_candidates <= 10000:
             raise CompassInputError(f"min_gain {self.min_gain} / n_goals {self.n_goals} / way_candidates "
                                     f"{self.way_candidates} not allowed; use >= 0, 1..100 and 0..10000")
+        if isinstance(self.n_back, bool) or not isinstance(self.n_back, int) or not 0 <= self.n_back <= 1000:
+            raise CompassInputError(f"n_back {self.n_back!r} is not allowed; use an integer 0..1000")
         if not 0.0 <= self.target_margin <= 0.5:
             raise CompassInputError(f"target_margin {self.target_margin} m is not allowed; use 0..0.5 m")
         if not 0.0 <= self.way_sigma <= 1.0 or not 0.0 <= self.wrist_sigma <= 3.0:
@@ -88,6 +99,40 @@ def survey_checker(wm, free_of) -> ValidityChecker:
     dist = distance_transform_edt(~unsafe).astype(np.float32) * np.float32(occ.resolution)
     return ValidityChecker(wm.spheres, config=wm.config.validity).with_grid(
         DistanceGrid(dist, occ.grid_min, occ.resolution))
+
+
+def back_candidates(occ, base: np.ndarray, config: TrialScanConfig, ik, q_ref: np.ndarray,
+                    rng: np.random.Generator) -> np.ndarray:
+    """(m, 7) [rad] camera-IK configurations (up to 2 a pose) of config.n_back poses, each
+    looking at a random unknown voxel of occ inside `back_band` (relative to base (3,) [m],
+    |y| taken on either side) from a random eye point in `back_eye`, 0.25-0.9 m away, rolled
+    at random; none when the band holds no unknown voxel."""
+    if config.n_back == 0:
+        return np.zeros((0, 7))
+    (x0, y0, z0), (x1, y1, z1) = config.back_band
+    out = []
+    for side in (1.0, -1.0):
+        lo = base + np.array([x0, min(side * y0, side * y1), z0])
+        hi = base + np.array([x1, max(side * y0, side * y1), z1])
+        a = np.clip(occ.world_to_voxel(lo[None])[0], 0, occ.shape)
+        b = np.clip(occ.world_to_voxel(hi[None])[0] + 1, 0, occ.shape)
+        idx = np.argwhere(occ.state[a[0]:b[0], a[1]:b[1], a[2]:b[2]] == VoxelState.UNKNOWN) + a
+        if len(idx):
+            out.append(occ.voxel_to_world(idx))
+    if not out:
+        return np.zeros((0, 7))
+    looks = np.vstack(out)
+    e_lo, e_hi = base + np.asarray(config.back_eye[0]), base + np.asarray(config.back_eye[1])
+    Q = []
+    for _ in range(config.n_back):
+        look = looks[rng.integers(len(looks))]
+        eye = rng.uniform(e_lo, e_hi)
+        d = float(np.linalg.norm(look - eye))
+        if not 0.25 <= d <= 0.9:
+            continue
+        T = view_pose(look, (look - eye) / d, d, rng.uniform(-np.pi, np.pi))
+        Q.extend(ik.solve(T, "cam", q_ref, 4, retry=False).solutions[:2])
+    return np.array(Q).reshape(-1, 7)
 
 
 class NearFieldScanner:
@@ -113,14 +158,24 @@ class NearFieldScanner:
         self.base = np.asarray(base_pos, dtype=np.float64)
         self.views, self.stopped, self.gains = 0, None, []
         self._scratch = None
+        self._ik = None
+        self.back_valid: list[tuple[int, int]] = []  # per step: look-back candidates, of them valid
 
     def step(self, q_current: np.ndarray, detection=None) -> InspectPlan | None:
         """One scan view planned from q_current, or None (the scan is over: `stopped` says why)."""
         t0 = time.perf_counter()
         c = self.config.candidates
         Q = np.vstack([scan_candidates(self.q_home, c.n_candidates, self.rng, c), self.near_way(q_current)])
+        n_way = len(Q)
+        if self.config.n_back:
+            if self._ik is None:
+                self._ik = PandaIK(self.wm.kin)
+            Q = np.vstack([Q, back_candidates(self.occ_of(), self.base, self.config, self._ik,
+                                              np.asarray(q_current, dtype=np.float64), self.rng)])
         checker = self.wm.checker if self.checker_of is None else self.checker_of()
-        Q = Q[np.asarray(checker.are_valid(Q), dtype=bool)]
+        ok = np.asarray(checker.are_valid(Q), dtype=bool)
+        self.back_valid.append((int(len(Q) - n_way), int(ok[n_way:].sum())))
+        Q = Q[ok]
         if len(Q) == 0:
             self.stopped = "no valid candidate"
             return None
