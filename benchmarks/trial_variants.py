@@ -319,3 +319,14 @@ def scan_back_config() -> TrialConfig:
 
 def scan_back(spec) -> tuple[dict, dict]:
     return _run(spec, scan_back_config())
+
+
+def scan_back_via_config() -> TrialConfig:
+    """scan_back, and a path to the pre-grasp via the home posture when none plans directly
+    (`GraspTrialConfig.plan_via_home`): a look-back view leaves the arm folded towards the base."""
+    g = GraspTrialConfig()
+    return TrialConfig(grasp=replace(g, scan=replace(g.scan, n_back=64), plan_via_home=True))
+
+
+def scan_back_via(spec) -> tuple[dict, dict]:
+    return _run(spec, scan_back_via_config())
