@@ -330,3 +330,14 @@ def scan_back_via_config() -> TrialConfig:
 
 def scan_back_via(spec) -> tuple[dict, dict]:
     return _run(spec, scan_back_via_config())
+
+
+def scan_back_return_config() -> TrialConfig:
+    """scan_back, and the arm back along the scan's own paths to where the scan started before
+    INSPECT and GRASP (`TrialScanConfig.return_back`)."""
+    g = GraspTrialConfig()
+    return TrialConfig(grasp=replace(g, scan=replace(g.scan, n_back=64, return_back=True)))
+
+
+def scan_back_return(spec) -> tuple[dict, dict]:
+    return _run(spec, scan_back_return_config())

@@ -337,3 +337,26 @@ def test_back_candidates_look_back_at_the_unknown_band_beside_the_base_from_in_f
     assert np.all(inside.any(axis=1))  # each camera looks at the band beside the base
     with pytest.raises(CompassInputError, match="n_back"):
         TrialScanConfig(n_back=-1)
+
+
+def test_scan_goes_back_along_its_own_paths_before_inspect_when_asked():
+    world = empty_cabinet_world()
+    try:
+        task, wm, q_view, view = observed_view(world)
+        gm = _fed_grasp_map(world, q_view)
+        handed = []
+        then = lambda q, d: handed.append(q) or InspectPlan(None, 0, 0, 0.0, planned=False)  # noqa: E731
+        runs = {}
+        for back in (False, True):
+            s = NearFieldScanner(lambda: gm.occ, wm, world.camera.K, (world.camera.width, world.camera.height),
+                                 world.robot.q_home, world.robot.base_pos,
+                                 TrialScanConfig(max_views=1, return_back=back), np.random.default_rng(0), then=then)
+            p = s(q_view, None)
+            runs[back] = (p, s(p.path[-1], None), s)
+    finally:
+        world.close()
+    (p0, after0, _), (p1, after1, s1) = runs[False], runs[True]
+    assert after0.planned is False  # off: INSPECT right after the scan
+    assert after1.path is not None and np.allclose(after1.path[0], p1.path[-1]) and np.allclose(after1.path[-1], q_view)
+    assert np.allclose(after1.path, p1.path[::-1])  # exactly the way it came
+    assert s1.way_back(q_view) is None and len(handed) == 1  # once: then INSPECT

@@ -57,7 +57,9 @@ class TrialScanConfig:
     back at the elbow's band beside the base (`back_candidates`: a random unknown voxel of
     back_band [m], relative to the base, mirrored to either side, seen from a random eye point in
     back_eye [m] in front of the base), solved by camera IK and kept, like the others, when valid
-    for the scan's checker (0: none)."""
+    for the scan's checker (0: none); return_back: when the scan ends, the arm first goes back
+    along the scan's own paths to where the scan started (`NearFieldScanner.way_back`: a look
+    back leaves the arm folded towards the base, from where the grasp's transfer seldom plans)."""
 
     max_views: int = 8
     min_gain: int = 40
@@ -70,6 +72,7 @@ class TrialScanConfig:
     planner: PlannerConfig = field(default_factory=lambda: PlannerConfig(max_checks=2 * DEFAULT_MAX_CHECKS))
     assumed_free: bool = False
     n_back: int = 0
+    return_back: bool = False
     back_band: tuple[tuple[float, float, float], tuple[float, float, float]] = ((-0.1, 0.15, 0.3), (0.35, 0.45, 0.8))
     back_eye: tuple[tuple[float, float, float], tuple[float, float, float]] = ((0.25, -0.35, 0.55), (0.6, 0.35, 1.05))
 
@@ -160,6 +163,8 @@ class NearFieldScanner:
         self._scratch = None
         self._ik = None
         self.back_valid: list[tuple[int, int]] = []  # per step: look-back candidates, of them valid
+        self._paths: list[np.ndarray] = []  # the scan's views' paths, in order (for `way_back`)
+        self._returned = False
 
     def step(self, q_current: np.ndarray, detection=None) -> InspectPlan | None:
         """One scan view planned from q_current, or None (the scan is over: `stopped` says why)."""
@@ -215,14 +220,31 @@ class NearFieldScanner:
         scale = np.r_[np.full(4, self.config.way_sigma), np.full(3, self.config.wrist_sigma)]
         return np.clip(Q + self.rng.normal(0.0, 1.0, Q.shape) * scale, Q_MIN + 1e-3, Q_MAX - 1e-3)
 
+    def way_back(self, q_current: np.ndarray) -> np.ndarray | None:
+        """(m, 7) [rad]: the scan's own views' paths reversed, from q_current (the last one's end)
+        back to where the scan started, or None (no view taken, already back, or the arm is not
+        where the last view left it)."""
+        if not self._paths or self._returned:
+            return None
+        if not np.allclose(np.asarray(q_current, dtype=np.float64), self._paths[-1][-1], atol=1e-6):
+            return None
+        W = np.vstack([p[::-1] for p in reversed(self._paths)])
+        keep = np.r_[True, np.any(np.abs(np.diff(W, axis=0)) > 1e-9, axis=1)]
+        return W[keep]
+
     def __call__(self, q_current: np.ndarray, detection) -> InspectPlan:
         if self.stopped is None and self.views < self.config.max_views:
             p = self.step(q_current, detection)
             if p is not None:
                 self.views += 1
+                self._paths.append(np.asarray(p.path, dtype=np.float64))
                 return p
         elif self.stopped is None:
             self.stopped = "max_views"
+        back = self.way_back(q_current) if self.config.return_back else None
+        if back is not None:  # back along the way the scan came (the robot's own space), then INSPECT
+            self._returned = True
+            return InspectPlan(back, 0, 0, 0.0)
         if self.then is None:
             return InspectPlan(None, 0, 0, 0.0, planned=False)
         return self.then(q_current, detection)
