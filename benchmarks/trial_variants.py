@@ -43,6 +43,10 @@
   second session (`TrialConfig()`), kept so the comparison can be re-run whatever the default.
 * scan_yaw09: the defaults with the near-body volume within +-0.9 rad (docs/grasping_log.md,
   "A point between on the dial").
+* scan_survey: the defaults with the scan's views checked and planned with the grasp stage's own
+  near-body assumption (`TrialScanConfig.assumed_free`; docs/grasping_log.md, "IG and COMPASS at GRASP").
+* scan_back: the defaults with 64 scan candidates a step looking back at the elbow's band beside
+  the base from in front of it (`TrialScanConfig.n_back`), valid for the method's own checker.
 """
 from __future__ import annotations
 
@@ -304,3 +308,48 @@ def scan_yaw09_config() -> TrialConfig:
 
 def scan_yaw09(spec) -> tuple[dict, dict]:
     return _run(spec, scan_yaw09_config())
+
+
+def scan_survey_config() -> TrialConfig:
+    """The defaults with the near-field scan's views checked and planned with the GRASP stage's own
+    near-body assumption (`TrialScanConfig.assumed_free`, `grasp_scan.survey_checker`): the scan's
+    arm may stand where the grasp's arm would go, and looks beside and in front of the base."""
+    g = GraspTrialConfig()
+    return TrialConfig(grasp=replace(g, scan=replace(g.scan, assumed_free=True)))
+
+
+def scan_survey(spec) -> tuple[dict, dict]:
+    return _run(spec, scan_survey_config())
+
+
+def scan_back_config() -> TrialConfig:
+    """The defaults with 64 scan candidates a step that look back at the elbow's band beside the
+    base from in front of it (`TrialScanConfig.n_back`), valid for the method's own checker."""
+    g = GraspTrialConfig()
+    return TrialConfig(grasp=replace(g, scan=replace(g.scan, n_back=64)))
+
+
+def scan_back(spec) -> tuple[dict, dict]:
+    return _run(spec, scan_back_config())
+
+
+def scan_back_via_config() -> TrialConfig:
+    """scan_back, and a path to the pre-grasp via the home posture when none plans directly
+    (`GraspTrialConfig.plan_via_home`): a look-back view leaves the arm folded towards the base."""
+    g = GraspTrialConfig()
+    return TrialConfig(grasp=replace(g, scan=replace(g.scan, n_back=64), plan_via_home=True))
+
+
+def scan_back_via(spec) -> tuple[dict, dict]:
+    return _run(spec, scan_back_via_config())
+
+
+def scan_back_return_config() -> TrialConfig:
+    """scan_back, and the arm back along the scan's own paths to where the scan started before
+    INSPECT and GRASP (`TrialScanConfig.return_back`)."""
+    g = GraspTrialConfig()
+    return TrialConfig(grasp=replace(g, scan=replace(g.scan, n_back=64, return_back=True)))
+
+
+def scan_back_return(spec) -> tuple[dict, dict]:
+    return _run(spec, scan_back_return_config())

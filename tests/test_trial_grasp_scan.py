@@ -264,3 +264,99 @@ def test_grasp_map_integrates_its_frames_when_read_the_same_map_as_on_arrival():
         assert np.count_nonzero(gm.occ.state != VoxelState.UNKNOWN) > 1000
     finally:
         world.close()
+
+
+def test_survey_checker_adds_the_grasps_assumed_space_to_the_methods_own_and_nothing_else():
+    from compass_manip.exploration.compass import CompassConfig, near_field_world
+    from compass_manip.exploration.world_model import WorldModel
+    from compass_manip.sim.grasp_only import near_body_unknown
+    from compass_manip.sim.near_field import NearFieldScanConfig, scan_candidates
+    from compass_manip.trial.grasp_scan import survey_checker
+
+    world = empty_cabinet_world()
+    try:
+        task, q_home = world.scene.task(), np.asarray(world.robot.q_home)
+        wm = WorldModel(q_home, near_field_world(CompassConfig()), world.robot, task)  # COMPASS's rules
+        wm.observe(world.render(q_home, rgb=False, seg=False).observation())
+        Q = scan_candidates(q_home, 300, np.random.default_rng(3), NearFieldScanConfig(yaw_range=0.6))
+        own = np.asarray(wm.checker.are_valid(Q), dtype=bool)
+        none = np.asarray(survey_checker(wm, lambda occ: np.zeros(occ.shape, bool)).are_valid(Q), dtype=bool)
+        near = lambda occ: near_body_unknown(occ, wm.spheres, q_home, 0.6)  # noqa: E731
+        survey = np.asarray(survey_checker(wm, near).are_valid(Q), dtype=bool)
+        wm.occ.state[near(wm.occ)] = VoxelState.OCCUPIED  # the same space seen occupied: never free
+        blocked = np.asarray(survey_checker(wm, near).are_valid(Q), dtype=bool)
+    finally:
+        world.close()
+    assert np.array_equal(none, own)  # nothing assumed: the method's own verdicts
+    assert np.all(survey | ~own) and survey.sum() >= own.sum() + 5  # more, and every one the method takes
+    assert not blocked.any()
+
+
+def test_scan_uses_the_checker_it_is_given():
+    world = empty_cabinet_world()
+    try:
+        task, wm, q_view, view = observed_view(world)
+        gm = _fed_grasp_map(world, q_view, n=2)
+        refuse = SimpleNamespace(are_valid=lambda Q: np.zeros(len(Q), bool))
+        s = NearFieldScanner(lambda: gm.occ, wm, world.camera.K, (world.camera.width, world.camera.height),
+                             world.robot.q_home, world.robot.base_pos, TrialScanConfig(), np.random.default_rng(1),
+                             checker_of=lambda: refuse)
+        out = s(q_view, None)
+    finally:
+        world.close()
+    assert out.planned is False and s.views == 0 and s.stopped == "no valid candidate"
+
+
+def test_back_candidates_look_back_at_the_unknown_band_beside_the_base_from_in_front():
+    from compass_manip.robot.ik import PandaIK
+    from compass_manip.robot.spheres import panda_sphere_model
+    from compass_manip.trial.grasp_scan import back_candidates
+
+    world = empty_cabinet_world()
+    try:
+        gm = _fed_grasp_map(world, np.asarray(world.robot.q_home), n=1)
+        kin = panda_sphere_model(world.robot).kinematics
+        base, q_home = np.asarray(world.robot.base_pos, float), np.asarray(world.robot.q_home)
+        cfg = TrialScanConfig(n_back=40)
+        Q = back_candidates(gm.occ, base, cfg, PandaIK(kin), q_home, np.random.default_rng(2))
+        T = kin.T_world_cam_batch(Q)
+        none = back_candidates(gm.occ, base, TrialScanConfig(), PandaIK(kin), q_home, np.random.default_rng(2))
+        gm.occ.state[...] = VoxelState.FREE  # nothing unknown in the band: nothing to look at
+        seen = back_candidates(gm.occ, base, cfg, PandaIK(kin), q_home, np.random.default_rng(2))
+    finally:
+        world.close()
+    assert len(Q) >= 5 and len(none) == 0 and len(seen) == 0
+    eye_lo, eye_hi = base + np.asarray(cfg.back_eye[0]), base + np.asarray(cfg.back_eye[1])
+    assert np.all((T[:, :3, 3] >= eye_lo - 1e-3) & (T[:, :3, 3] <= eye_hi + 1e-3))  # in front of the base
+    s = np.linspace(0.25, 0.9, 66)
+    P = T[:, None, :3, 3] + s[None, :, None] * T[:, None, :3, 2]  # along each optical axis
+    (x0, y0, z0), (x1, y1, z1) = cfg.back_band
+    rel = P - base
+    inside = (rel[..., 0] >= x0 - 0.01) & (rel[..., 0] <= x1 + 0.01) & (np.abs(rel[..., 1]) >= y0 - 0.01) \
+        & (np.abs(rel[..., 1]) <= y1 + 0.01) & (rel[..., 2] >= z0 - 0.01) & (rel[..., 2] <= z1 + 0.01)
+    assert np.all(inside.any(axis=1))  # each camera looks at the band beside the base
+    with pytest.raises(CompassInputError, match="n_back"):
+        TrialScanConfig(n_back=-1)
+
+
+def test_scan_goes_back_along_its_own_paths_before_inspect_when_asked():
+    world = empty_cabinet_world()
+    try:
+        task, wm, q_view, view = observed_view(world)
+        gm = _fed_grasp_map(world, q_view)
+        handed = []
+        then = lambda q, d: handed.append(q) or InspectPlan(None, 0, 0, 0.0, planned=False)  # noqa: E731
+        runs = {}
+        for back in (False, True):
+            s = NearFieldScanner(lambda: gm.occ, wm, world.camera.K, (world.camera.width, world.camera.height),
+                                 world.robot.q_home, world.robot.base_pos,
+                                 TrialScanConfig(max_views=1, return_back=back), np.random.default_rng(0), then=then)
+            p = s(q_view, None)
+            runs[back] = (p, s(p.path[-1], None), s)
+    finally:
+        world.close()
+    (p0, after0, _), (p1, after1, s1) = runs[False], runs[True]
+    assert after0.planned is False  # off: INSPECT right after the scan
+    assert after1.path is not None and np.allclose(after1.path[0], p1.path[-1]) and np.allclose(after1.path[-1], q_view)
+    assert np.allclose(after1.path, p1.path[::-1])  # exactly the way it came
+    assert s1.way_back(q_view) is None and len(handed) == 1  # once: then INSPECT

@@ -26,7 +26,7 @@ from ..sim.world import World
 from .config import GRASP_ABLATION_METHOD, ORACLE_DETECTOR, TrialConfig
 from .grasp_stage import assumed_unknown_free, run_grasp_stage
 from .grasp_map import GraspMap, GraspWorld
-from .grasp_scan import NearFieldScanner
+from .grasp_scan import NearFieldScanner, survey_checker
 from .grasp_views import GraspInspector
 from .inspect import plan_inspect_view
 from .verify import LookPlanner
@@ -137,10 +137,15 @@ def run_trial_full(spec: TrialSpec, config: TrialConfig | None = None, progress=
                                          detection.points_world, outward, q, config.grasp.inspect, insp_rng)
     if gmap is not None and config.grasp.scan.max_views > 0 and own is not None:  # near-field scan first
         scan_rng = np.random.default_rng(np.random.SeedSequence((spec.seed, spec.level, spec.scene, spec.trial, 13)))
+        survey = None
+        if config.grasp.scan.assumed_free:  # the scan may stand where the grasp's assumption lets the arm go
+            sph, qh = panda_sphere_model(world.robot), np.asarray(world.robot.q_home)
+            survey = lambda: survey_checker(method.world, lambda occ: assumed_unknown_free(  # noqa: E731
+                occ, config.grasp, sph, qh, task, None))
         inspect = NearFieldScanner(lambda: gmap.occ, method.world, world.camera.K,
                                    (world.camera.width, world.camera.height), world.robot.q_home,
                                    world.robot.base_pos, config.grasp.scan, scan_rng, then=inspect,
-                                   way_of=lambda: gmap.way)
+                                   way_of=lambda: gmap.way, checker_of=survey)
         if isinstance(inspect.then, GraspInspector):  # INSPECT scores the way's neighbours too
             inspect.then.more_candidates = inspect.near_way
         n_inspect += config.grasp.scan.max_views
