@@ -36,12 +36,8 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 import numpy as np
 
 import trial_variants
-from compass_manip.grasp.candidates import AntipodalProposer, propose_in_cone
-from compass_manip.grasp.checks import GraspChecks, first_clear, hand_clear, lift_steps, pregrasp_steps, rigid_hand_spheres
-from compass_manip.grasp.select import approach_angles, base_volume_mask, desired_approach
 from compass_manip.mapping.occupancy import VoxelState
 from compass_manip.motion.primitives import PrimitiveSet
-from compass_manip.robot.ik import PandaIK
 from compass_manip.robot.spheres import panda_sphere_model
 from compass_manip.sim import oracle
 from compass_manip.sim.certify import certified_scene
@@ -50,7 +46,7 @@ from compass_manip.trial import grasp_stage, runner
 from compass_manip.trial.config import TrialConfig
 from compass_manip.trial.grasp_stage import assumed_unknown_free
 from diag_grasp_certified import _dists, blocking_cells
-from diag_hand_rejections import gt_free
+from diag_hand_rejections import gt_free, hand_stage
 
 REGIONS = ("cabinet", "opening", "beside_base", "front_base")
 
@@ -110,19 +106,7 @@ def blockers(box: dict, scene, rest, tgt, max_arm: int = 400) -> tuple[dict, np.
     """(counts, blocking hand voxels (K,3), blocking arm voxels (L,3)) of one capture."""
     cfg, target, occ, q, fine = box["config"], box["target"], box["occ"], box["q"], box["fine_map"]
     spheres = box["spheres"]
-    n = desired_approach(target, box["task"])
-    proposer = box.get("proposer") or AntipodalProposer(cfg.candidates)
-    cands = propose_in_cone(proposer, target, copy.deepcopy(box["rng"]), n, cfg.max_approach_angle)
-    cur = spheres.sphere_centers(q[None])[0]
-    extra = base_volume_mask(spheres, occ) | box["extra_safe"]
-    ch = GraspChecks(occ, target, spheres, PandaIK(spheres.kinematics), cfg, (cur, spheres.radii + cfg.robot_clearance),
-                     extra, q, fine_map=fine)
-    local = rigid_hand_spheres(spheres)
-    within = np.nonzero(approach_angles(cands, n) <= cfg.max_approach_angle)[0]
-    T = cands.T_world_tcp[within]
-    at = hand_clear(ch.fine, T, local, cfg.voxel_extent)
-    pre = first_clear(ch.fine, T, local, pregrasp_steps(cfg.pregrasp_distances), cfg.voxel_extent)
-    lift = first_clear(ch.fine, T, local, lift_steps(cfg.lift_heights), cfg.voxel_extent)
+    n, cands, ch, local, within, T, at, pre, lift = hand_stage(box, spheres, copy.deepcopy(box["rng"]))
     gt_at = gt_free(rest, T, local)
     C, r = local
     hand_cells = []

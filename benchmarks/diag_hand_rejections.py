@@ -120,6 +120,28 @@ def shadowed(cells, cam, tgt, n: int = 24) -> np.ndarray:
     return np.any(_dists(np.ascontiguousarray(P.reshape(-1, 3)), tgt).reshape(len(cells), n) < 0.0, axis=1)
 
 
+def hand_stage(box: dict, spheres, rng):
+    """The selection's hand stage on a captured `box` (its config, target, map, q, fine map,
+    task, extra_safe, proposer): (desired approach n, candidates, the `GraspChecks`, the rigid
+    hand's spheres, indices of the candidates within the approach cone, their TCP poses T, and
+    the hand's clearance at the grasp, pre-grasp and lift), candidates drawn with `rng`."""
+    cfg, target, occ, q = box["config"], box["target"], box["occ"], np.asarray(box["q"])
+    n = desired_approach(target, box["task"])
+    proposer = box.get("proposer") or AntipodalProposer(cfg.candidates)
+    cands = propose_in_cone(proposer, target, rng, n, cfg.max_approach_angle)
+    cur = spheres.sphere_centers(q[None])[0]
+    extra = base_volume_mask(spheres, occ) | box["extra_safe"]
+    ch = GraspChecks(occ, target, spheres, PandaIK(spheres.kinematics), cfg,
+                     (cur, spheres.radii + cfg.robot_clearance), extra, q, fine_map=box.get("fine_map"))
+    local = rigid_hand_spheres(spheres)
+    within = np.nonzero(approach_angles(cands, n) <= cfg.max_approach_angle)[0]
+    T = cands.T_world_tcp[within]
+    at = hand_clear(ch.fine, T, local, cfg.voxel_extent)
+    pre = first_clear(ch.fine, T, local, pregrasp_steps(cfg.pregrasp_distances), cfg.voxel_extent)
+    lift = first_clear(ch.fine, T, local, lift_steps(cfg.lift_heights), cfg.voxel_extent)
+    return n, cands, ch, local, within, T, at, pre, lift
+
+
 def diagnose(level: int, index: int, seed: int) -> dict:
     cs, spheres = scene_spheres(level, index, seed)
     scene = cs.scene
@@ -130,19 +152,7 @@ def diagnose(level: int, index: int, seed: int) -> dict:
         return rec
     cfg: GraspSelectConfig = box["config"]
     target, occ, q, fine = box["target"], box["occ"], box["q"], box.get("fine_map")
-    n = desired_approach(target, box["task"])
-    proposer = box.get("proposer") or AntipodalProposer(cfg.candidates)
-    cands = propose_in_cone(proposer, target, box["rng"], n, cfg.max_approach_angle)
-    cur = spheres.sphere_centers(np.asarray(q)[None])[0]
-    extra = base_volume_mask(spheres, occ) | box["extra_safe"]
-    ch = GraspChecks(occ, target, spheres, PandaIK(spheres.kinematics), cfg,
-                     (cur, spheres.radii + cfg.robot_clearance), extra, q, fine_map=fine)
-    local = rigid_hand_spheres(spheres)
-    within = np.nonzero(approach_angles(cands, n) <= cfg.max_approach_angle)[0]
-    T = cands.T_world_tcp[within]
-    at = hand_clear(ch.fine, T, local, cfg.voxel_extent)
-    pre = first_clear(ch.fine, T, local, pregrasp_steps(cfg.pregrasp_distances), cfg.voxel_extent)
-    lift = first_clear(ch.fine, T, local, lift_steps(cfg.lift_heights), cfg.voxel_extent)
+    n, cands, ch, local, within, T, at, pre, lift = hand_stage(box, spheres, box["rng"])
     rest = oracle.scene_obstacles(scene, exclude_target=True).arrays()
     tgt = PrimitiveSet.from_shapes(list(scene.target.parts)).arrays()
     d_short = cfg.pregrasp_distances[-1]
