@@ -24,16 +24,15 @@ import numpy as np
 from scipy.ndimage import distance_transform_edt
 
 from ..errors import CompassInputError
-
 from ..exploration.nfa import safe_box_map
+from ..exploration.viewpoints import view_pose
 from ..exploration.world_model import method_safe_voxels
 from ..mapping.distance import unsafe_mask
+from ..mapping.infogain import info_gain_batch
 from ..mapping.occupancy import VoxelState
+from ..motion.planner import DEFAULT_MAX_CHECKS, PlannerConfig, plan
 from ..motion.primitives import DistanceGrid
 from ..motion.validity import ValidityChecker
-from ..mapping.infogain import info_gain_batch
-from ..motion.planner import DEFAULT_MAX_CHECKS, PlannerConfig, plan
-from ..exploration.viewpoints import view_pose
 from ..robot.ik import PandaIK
 from ..robot.model import Q_MAX, Q_MIN
 from ..sim.near_field import NearFieldScanConfig, scan_candidates
