@@ -47,7 +47,6 @@ frames' order and content only, so a seed still gives one trial.
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -55,7 +54,7 @@ from scipy.spatial import cKDTree
 
 from ..errors import CompassInputError
 from ..task import TargetQuery
-from .detector import Detection, Verdict
+from .detector import Detection, Verdict, exceeds_size
 from .target import upright_extents
 
 _CONTRADICTING = (Verdict.WRONG_SIZE,)
@@ -174,10 +173,7 @@ class Confirmer:
     def fits(self, points: np.ndarray) -> bool:
         """Whether points (N, 3) [m] fit in the query's size (upright extents at most
         size_tolerance larger + 1 cm; the major horizontal extent against the diagonal)."""
-        a, b, c = (float(v) for v in self.query.size)
-        ext = upright_extents(points)
-        tol = 1.0 + self.config.size_tolerance
-        return ext[2] <= c * tol + 0.01 and ext[0] <= math.hypot(a, b) * tol + 0.01
+        return not exceeds_size(upright_extents(points), self.query.size, self.config.size_tolerance, 0.01)
 
     def _view(self, d: Detection, obs=None) -> Detection:
         """d (TENTATIVE, or a supporting WRONG_SHAPE view) as it stands after this frame."""

@@ -39,6 +39,15 @@ SHAPE_FAMILY = {"box": "box", "book": "box", "cereal_box": "box", "cylinder": "r
                 "bottle": "round", "mug": "round", "bowl": "round", "sphere": "sphere"}
 
 
+def exceeds_size(ext, size, tolerance: float, slack: float) -> bool:
+    """Whether upright extents ext (major horizontal, minor horizontal, height) [m] exceed a
+    query's size (a, b, c) [m]: the height c, or the major extent the horizontal diagonal
+    hypot(a, b), by more than the share `tolerance` plus `slack` [m]."""
+    a, b, c = (float(v) for v in size)
+    tol = 1.0 + tolerance
+    return bool(ext[2] > c * tol + slack or ext[0] > math.hypot(a, b) * tol + slack)
+
+
 class Verdict(enum.Enum):
     ACCEPTED = "accepted"
     TENTATIVE = "tentative"  # a match, but not clearly whole: accepted once confirmed (perception.confirm)
@@ -224,8 +233,7 @@ class AppearanceDetector:
         a, b, c = (float(v) for v in query.size)
         if shape == "round" and not curved_like(inner_pts, 0.5 * min(a, b), ext[0], config.min_curvature_ratio):
             shape = "box"  # normals spread by the region's edges, but the surface is a plane
-        tol = 1.0 + config.size_tolerance
-        too_big = ext[2] > c * tol + config.size_slack or ext[0] > math.hypot(a, b) * tol + config.size_slack
+        too_big = exceeds_size(ext, query.size, config.size_tolerance, config.size_slack)
         completeness = min(1.0, ext[2] / c, ext[0] / b)
         u0, u1, v0, v1 = int(cols.min()), int(cols.max()), int(rows.min()), int(rows.max())
         at_border = (u0 < config.border_px or v0 < config.border_px or u1 >= W - config.border_px

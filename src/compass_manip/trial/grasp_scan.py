@@ -21,7 +21,6 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.ndimage import distance_transform_edt
 
 from ..errors import CompassInputError
 from ..exploration.nfa import safe_box_map
@@ -97,10 +96,8 @@ def survey_checker(wm, free_of) -> ValidityChecker:
     occ = wm.occ
     safe = method_safe_voxels(occ, wm.swept, wm.assumed_free, wm.config.obstacle_halo)
     safe |= np.asarray(free_of(occ), dtype=bool) & (occ.state == VoxelState.UNKNOWN)
-    unsafe = unsafe_mask(occ, safe_voxels=safe)
-    dist = distance_transform_edt(~unsafe).astype(np.float32) * np.float32(occ.resolution)
-    return ValidityChecker(wm.spheres, config=wm.config.validity).with_grid(
-        DistanceGrid(dist, occ.grid_min, occ.resolution))
+    grid = DistanceGrid.from_unsafe_mask(unsafe_mask(occ, safe_voxels=safe), occ.grid_min, occ.resolution)
+    return ValidityChecker(wm.spheres, config=wm.config.validity).with_grid(grid)
 
 
 def back_candidates(occ, base: np.ndarray, config: TrialScanConfig, ik, q_ref: np.ndarray,
