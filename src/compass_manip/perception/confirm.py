@@ -19,7 +19,8 @@ frames, and the camera positions that saw them) and, frame by frame, in order:
   the detection's still fit the query's size (at most `size_tolerance` larger + 1 cm): the
   detection becomes ACCEPTED (its frame's time is the time found);
 * a region of the query's colour and size classed another shape (WRONG_SHAPE, at least
-  `support_completeness` of the query showing) is a supporting view of the same place: it
+  `support_completeness` of the query showing, not a patch of a larger surface of another
+  colour: `Detection.patch`) is a supporting view of the same place: it
   joins or starts a candidate like a tentative one and confirms one that a tentative view
   (the right shape class) started or joined, under the same conditions; it is then the
   ACCEPTED detection (its shape as seen kept). On the severe levels the neck of the bottle
@@ -155,7 +156,7 @@ class Confirmer:
 
     def _is_view(self, d: Detection) -> bool:
         return d.verdict is Verdict.TENTATIVE or (
-            d.verdict is Verdict.WRONG_SHAPE and d.score >= self.config.support_completeness)
+            d.verdict is Verdict.WRONG_SHAPE and d.score >= self.config.support_completeness and not d.patch)
 
     def _contradict(self, d: Detection) -> None:
         P = np.asarray(d.points_world, float).reshape(-1, 3)

@@ -31,6 +31,7 @@ from ..errors import CompassInputError
 from ..task import TargetQuery
 from ..types import Observation
 from .colour import ColourMaskCache, colour_mask  # noqa: F401 (colour_mask: part of this module's API)
+from .cut import CutKinds, cut_kinds
 from .shape import classify_shape, curved_like  # noqa: F401 (classify_shape: part of this module's API)
 from .target import backproject_image, region_normals, upright_extents
 
@@ -82,7 +83,13 @@ class DetectorConfig:
     (but at least min_completeness) is TENTATIVE, accepted only when a later frame confirms it
     (`perception.confirm`; None: accepted at once, the rule until 2026-11-24: on fresh seed 3131
     level 3 scene 8 it accepted, at the first frame, a 4.0 x 3.6 cm lit slice of an orange book's
-    side read as yellow, completeness 0.33, as the 5.6 x 5.5 x 10.9 cm yellow box queried)."""
+    side read as yellow, completeness 0.33, as the 5.6 x 5.5 x 10.9 cm yellow box queried);
+    max_continued: a TENTATIVE or WRONG_SHAPE region whose outline lies for at least this share
+    on a surface that goes on in another colour (`cut.cut_kinds`: same depth, same plane) is a
+    patch of a larger surface (`Detection.patch`): a TENTATIVE one is PARTIAL instead (a point
+    of interest, never accepted), a WRONG_SHAPE one supports no confirmation (None: off, the
+    rule until 2026-11-24's fourth session; the book's slice above has 41-52 % of its outline
+    on the book's side, and no region of a target in 35 find-only trials more than 0 %)."""
 
     colour_max_angle_deg: float = 10.0
     min_value: float = 0.12
@@ -101,6 +108,7 @@ class DetectorConfig:
     min_curvature_ratio: float = 0.5
     max_points: int = 3000
     confirm_completeness: float | None = 0.6
+    max_continued: float | None = 0.3
 
     def __post_init__(self) -> None:
         if not 0 < self.colour_max_angle_deg < 45:
@@ -114,6 +122,9 @@ class DetectorConfig:
                 and self.min_completeness <= self.confirm_completeness <= 1):
             raise CompassInputError(f"confirm_completeness {self.confirm_completeness!r} must be in "
                                     f"[min_completeness = {self.min_completeness}, 1] or None")
+        m = self.max_continued
+        if m is not None and (isinstance(m, bool) or not isinstance(m, (int, float)) or not 0 < m <= 1):
+            raise CompassInputError(f"max_continued {m!r} is not allowed; use a share in (0, 1] or None")
         if self.min_pixels < 1:
             raise CompassInputError(f"min_pixels {self.min_pixels} must be >= 1")
 
@@ -125,7 +136,9 @@ class Detection:
     t [s] and T_world_cam of its image; bbox (u0, v0, u1, v1) [px] inclusive; centre_px
     (u, v) of the box; n_pixels; points_world (N, 3) [m] (subsampled); centroid_world (3,);
     extents (major horizontal, minor horizontal, vertical) [m]; shape: 'box' | 'round' |
-    'sphere' | 'unknown' as seen; score in [0, 1] (completeness of the view); verdict.
+    'sphere' | 'unknown' as seen; score in [0, 1] (completeness of the view); verdict; cut:
+    what cuts a TENTATIVE or WRONG_SHAPE region off (`cut.cut_kinds`; None for the others);
+    patch: the region is a patch of a larger surface of another colour (`max_continued`).
     """
 
     t: float
@@ -139,6 +152,8 @@ class Detection:
     shape: str
     score: float
     verdict: Verdict
+    cut: CutKinds | None = None
+    patch: bool = False
 
     @property
     def accepted(self) -> bool:
@@ -248,12 +263,17 @@ class AppearanceDetector:
             verdict = Verdict.ACCEPTED if whole else Verdict.TENTATIVE
         else:
             verdict = Verdict.PARTIAL
+        cut = cut_kinds(obs.depth, pts, sub, sl) if verdict in (Verdict.TENTATIVE, Verdict.WRONG_SHAPE) else None
+        patch = cut is not None and config.max_continued is not None and cut.continued >= config.max_continued
+        if patch and verdict is Verdict.TENTATIVE:
+            verdict = Verdict.PARTIAL
         if len(P) > config.max_points:
             P = P[np.linspace(0, len(P) - 1, config.max_points).astype(int)]
         return Detection(
             t=float(obs.t), T_world_cam=np.asarray(obs.T_world_cam), bbox=(u0, v0, u1, v1),
             centre_px=((u0 + u1) / 2, (v0 + v1) / 2), n_pixels=int(len(rows)), points_world=P,
             centroid_world=P.mean(axis=0), extents=ext, shape=shape, score=float(completeness), verdict=verdict,
+            cut=cut, patch=patch,
         )
 
 
