@@ -353,3 +353,25 @@ def scan_back_return_config() -> TrialConfig:
 
 def scan_back_return(spec) -> tuple[dict, dict]:
     return _run(spec, scan_back_return_config())
+
+
+def insp_all_config() -> TrialConfig:
+    """The defaults with branch insp's INSPECT features on in the trial, as in the grasp-only harness:
+    32 looks up a step (`InspectConfig.n_up`), the escape from a start invalid for the method's
+    checker (`escape`) and up to 3 view groups planned a step (`plan_groups`)."""
+    g = GraspTrialConfig()
+    return TrialConfig(grasp=replace(g, inspect=replace(g.inspect, n_up=32, escape=True, plan_groups=3)))
+
+
+def insp_all(spec) -> tuple[dict, dict]:
+    return _run(spec, insp_all_config())
+
+
+def insp_escape_groups_config() -> TrialConfig:
+    """The defaults with INSPECT's escape and up to 3 view groups a step, no looks up."""
+    g = GraspTrialConfig()
+    return TrialConfig(grasp=replace(g, inspect=replace(g.inspect, escape=True, plan_groups=3)))
+
+
+def insp_escape_groups(spec) -> tuple[dict, dict]:
+    return _run(spec, insp_escape_groups_config())
