@@ -47,6 +47,10 @@
   near-body assumption (`TrialScanConfig.assumed_free`; docs/grasping_log.md, "IG and COMPASS at GRASP").
 * scan_back: the defaults with 64 scan candidates a step looking back at the elbow's band beside
   the base from in front of it (`TrialScanConfig.n_back`), valid for the method's own checker.
+* insp_all: the defaults with branch insp's INSPECT features on in the trial as in the grasp-only
+  harness (32 looks up a step, the escape from a start the method's checker refuses, up to 3 view
+  groups planned a step; docs/grasping_log.md, "The severe levels end to end").
+* insp_escape_groups: insp_all without the looks up.
 """
 from __future__ import annotations
 
