@@ -379,3 +379,29 @@ def insp_escape_groups_config() -> TrialConfig:
 
 def insp_escape_groups(spec) -> tuple[dict, dict]:
     return _run(spec, insp_escape_groups_config())
+
+
+def inspect_long_config() -> TrialConfig:
+    """The defaults with INSPECT going on while a view sees at least 0.5 % of the hypotheses' weight
+    (`InspectConfig.min_fraction`, 2 % by default): on the severe levels the hypotheses need thousands
+    of voxels of the arm's space in front of the cabinet, and the best view toward the target sees
+    1-2 % of that weight, so INSPECT stopped before looking at the hand's way in over the box."""
+    g = GraspTrialConfig()
+    return TrialConfig(grasp=replace(g, inspect=replace(g.inspect, min_fraction=0.005)))
+
+
+def inspect_long(spec) -> tuple[dict, dict]:
+    return _run(spec, inspect_long_config())
+
+
+def inspect_near_config() -> TrialConfig:
+    """The defaults with INSPECT's views aimed first at the needed voxels within 20 cm of the detection's
+    points' box (`InspectConfig.near_first`): the hand's way in over the severe levels' box, which the
+    trial's map leaves unknown while the arm's space in front of the cabinet dominates the hypotheses'
+    needed voxels (docs/grasping_log.md, "The severe levels end to end")."""
+    g = GraspTrialConfig()
+    return TrialConfig(grasp=replace(g, inspect=replace(g.inspect, near_first=0.2)))
+
+
+def inspect_near(spec) -> tuple[dict, dict]:
+    return _run(spec, inspect_near_config())
