@@ -405,3 +405,26 @@ def inspect_near_config() -> TrialConfig:
 
 def inspect_near(spec) -> tuple[dict, dict]:
     return _run(spec, inspect_near_config())
+
+
+def insp_all_yaw12_config() -> TrialConfig:
+    """insp_all with the former wide near-body volume (joint 1 within +-1.2 rad of home's) and no scan: the
+    configuration in which branch insp saw the looks up run link 4 into an unseen base wall (seed 101,
+    level 3, scene 0), to tell whether the narrow volume of today's defaults is what prevents it."""
+    g = former_grasp()
+    return TrialConfig(grasp=replace(g, inspect=replace(g.inspect, n_up=32, escape=True, plan_groups=3)))
+
+
+def insp_all_yaw12(spec) -> tuple[dict, dict]:
+    return _run(spec, insp_all_yaw12_config())
+
+
+def insp_all_noscan_config() -> TrialConfig:
+    """insp_all without the near-field scan (the near-body volume at today's +-0.6 rad): with insp_all_yaw12,
+    tells which of the two changes since branch insp keeps the looks up off the base wall."""
+    g = replace(GraspTrialConfig(), scan=TrialScanConfig(max_views=0))
+    return TrialConfig(grasp=replace(g, inspect=replace(g.inspect, n_up=32, escape=True, plan_groups=3)))
+
+
+def insp_all_noscan(spec) -> tuple[dict, dict]:
+    return _run(spec, insp_all_noscan_config())
