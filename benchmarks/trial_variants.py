@@ -428,3 +428,14 @@ def insp_all_noscan_config() -> TrialConfig:
 
 def insp_all_noscan(spec) -> tuple[dict, dict]:
     return _run(spec, insp_all_noscan_config())
+
+
+def insp_before_config() -> TrialConfig:
+    """The defaults with INSPECT's view choice before branch sevt (no escape, one planner call a step:
+    `escape=False, plan_groups=1`; no looks up), the trial's defaults until 2026-11-24's fourth session."""
+    g = GraspTrialConfig()
+    return TrialConfig(grasp=replace(g, inspect=replace(g.inspect, n_up=0, escape=False, plan_groups=1)))
+
+
+def insp_before(spec) -> tuple[dict, dict]:
+    return _run(spec, insp_before_config())
