@@ -50,7 +50,13 @@
 * insp_all: the defaults with branch insp's INSPECT features on in the trial as in the grasp-only
   harness (32 looks up a step, the escape from a start the method's checker refuses, up to 3 view
   groups planned a step; docs/grasping_log.md, "The severe levels end to end").
-* insp_escape_groups: insp_all without the looks up.
+* insp_escape_groups: insp_all without the looks up (equal to the defaults since branch sevt).
+* insp_before: the trial's INSPECT view choice before branch sevt (`escape=False, plan_groups=1`).
+* insp_all_yaw12 / insp_all_noscan: insp_all with the former +-1.2 rad near-body volume and no scan /
+  with no scan: branch insp's end-to-end collision reproduced / not (seed 101, level 3, scene 0).
+* inspect_long: INSPECT goes on while a view sees 0.5 % of the hypotheses' weight (2 % by default).
+* inspect_near: INSPECT aims first at the needed voxels within 20 cm of the detection's points' box
+  (`InspectConfig.near_first`).
 """
 from __future__ import annotations
 
