@@ -240,5 +240,6 @@ def test_near_target_first_keeps_the_needed_voxels_next_to_the_target_while_any_
 
 
 def test_inspect_config_rejects_a_negative_near_first():
-    with pytest.raises(Exception, match="near_first"):
+    from compass_manip.errors import CompassInputError
+    with pytest.raises(CompassInputError, match="near_first"):
         InspectConfig(near_first=-0.1)
