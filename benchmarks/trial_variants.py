@@ -47,6 +47,16 @@
   near-body assumption (`TrialScanConfig.assumed_free`; docs/grasping_log.md, "IG and COMPASS at GRASP").
 * scan_back: the defaults with 64 scan candidates a step looking back at the elbow's band beside
   the base from in front of it (`TrialScanConfig.n_back`), valid for the method's own checker.
+* insp_all: the defaults with branch insp's INSPECT features on in the trial as in the grasp-only
+  harness (32 looks up a step, the escape from a start the method's checker refuses, up to 3 view
+  groups planned a step; docs/grasping_log.md, "The severe levels end to end").
+* insp_escape_groups: insp_all without the looks up (equal to the defaults since branch sevt).
+* insp_before: the trial's INSPECT view choice before branch sevt (`escape=False, plan_groups=1`).
+* insp_all_yaw12 / insp_all_noscan: insp_all with the former +-1.2 rad near-body volume and no scan /
+  with no scan: branch insp's end-to-end collision reproduced / not (seed 101, level 3, scene 0).
+* inspect_long: INSPECT goes on while a view sees 0.5 % of the hypotheses' weight (2 % by default).
+* inspect_near: INSPECT aims first at the needed voxels within 20 cm of the detection's points' box
+  (`InspectConfig.near_first`).
 """
 from __future__ import annotations
 
@@ -353,3 +363,85 @@ def scan_back_return_config() -> TrialConfig:
 
 def scan_back_return(spec) -> tuple[dict, dict]:
     return _run(spec, scan_back_return_config())
+
+
+def insp_all_config() -> TrialConfig:
+    """The defaults with branch insp's INSPECT features on in the trial, as in the grasp-only harness:
+    32 looks up a step (`InspectConfig.n_up`), the escape from a start invalid for the method's
+    checker (`escape`) and up to 3 view groups planned a step (`plan_groups`)."""
+    g = GraspTrialConfig()
+    return TrialConfig(grasp=replace(g, inspect=replace(g.inspect, n_up=32, escape=True, plan_groups=3)))
+
+
+def insp_all(spec) -> tuple[dict, dict]:
+    return _run(spec, insp_all_config())
+
+
+def insp_escape_groups_config() -> TrialConfig:
+    """The defaults with INSPECT's escape and up to 3 view groups a step, no looks up."""
+    g = GraspTrialConfig()
+    return TrialConfig(grasp=replace(g, inspect=replace(g.inspect, escape=True, plan_groups=3)))
+
+
+def insp_escape_groups(spec) -> tuple[dict, dict]:
+    return _run(spec, insp_escape_groups_config())
+
+
+def inspect_long_config() -> TrialConfig:
+    """The defaults with INSPECT going on while a view sees at least 0.5 % of the hypotheses' weight
+    (`InspectConfig.min_fraction`, 2 % by default): on the severe levels the hypotheses need thousands
+    of voxels of the arm's space in front of the cabinet, and the best view toward the target sees
+    1-2 % of that weight, so INSPECT stopped before looking at the hand's way in over the box."""
+    g = GraspTrialConfig()
+    return TrialConfig(grasp=replace(g, inspect=replace(g.inspect, min_fraction=0.005)))
+
+
+def inspect_long(spec) -> tuple[dict, dict]:
+    return _run(spec, inspect_long_config())
+
+
+def inspect_near_config() -> TrialConfig:
+    """The defaults with INSPECT's views aimed first at the needed voxels within 20 cm of the detection's
+    points' box (`InspectConfig.near_first`): the hand's way in over the severe levels' box, which the
+    trial's map leaves unknown while the arm's space in front of the cabinet dominates the hypotheses'
+    needed voxels (docs/grasping_log.md, "The severe levels end to end")."""
+    g = GraspTrialConfig()
+    return TrialConfig(grasp=replace(g, inspect=replace(g.inspect, near_first=0.2)))
+
+
+def inspect_near(spec) -> tuple[dict, dict]:
+    return _run(spec, inspect_near_config())
+
+
+def insp_all_yaw12_config() -> TrialConfig:
+    """insp_all with the former wide near-body volume (joint 1 within +-1.2 rad of home's) and no scan: the
+    configuration in which branch insp saw the looks up run link 4 into an unseen base wall (seed 101,
+    level 3, scene 0), to tell whether the narrow volume of today's defaults is what prevents it."""
+    g = former_grasp()
+    return TrialConfig(grasp=replace(g, inspect=replace(g.inspect, n_up=32, escape=True, plan_groups=3)))
+
+
+def insp_all_yaw12(spec) -> tuple[dict, dict]:
+    return _run(spec, insp_all_yaw12_config())
+
+
+def insp_all_noscan_config() -> TrialConfig:
+    """insp_all without the near-field scan (the near-body volume at today's +-0.6 rad): with insp_all_yaw12,
+    tells which of the two changes since branch insp keeps the looks up off the base wall."""
+    g = replace(GraspTrialConfig(), scan=TrialScanConfig(max_views=0))
+    return TrialConfig(grasp=replace(g, inspect=replace(g.inspect, n_up=32, escape=True, plan_groups=3)))
+
+
+def insp_all_noscan(spec) -> tuple[dict, dict]:
+    return _run(spec, insp_all_noscan_config())
+
+
+def insp_before_config() -> TrialConfig:
+    """The defaults with INSPECT's view choice before branch sevt (no escape, one planner call a step:
+    `escape=False, plan_groups=1`; no looks up), the trial's defaults until 2026-11-24's fourth session."""
+    g = GraspTrialConfig()
+    return TrialConfig(grasp=replace(g, inspect=replace(g.inspect, n_up=0, escape=False, plan_groups=1)))
+
+
+def insp_before(spec) -> tuple[dict, dict]:
+    return _run(spec, insp_before_config())

@@ -219,3 +219,27 @@ def test_inspect_moves_out_of_a_start_the_checker_refuses(rail_view):
     finally:
         occ.state[...] = state
         wm._checker = None
+
+
+def test_near_target_first_keeps_the_needed_voxels_next_to_the_target_while_any_is_there():
+    from compass_manip.mapping.occupancy import MapConfig, OccupancyMap
+    from compass_manip.trial.grasp_views import near_target_first
+    occ = OccupancyMap(MapConfig(box_min=(0.0, 0.0, 0.0), box_max=(1.0, 1.0, 1.0), resolution=0.01))
+    points = np.array([[0.80, 0.50, 0.50], [0.82, 0.52, 0.60]])  # the target's points
+    near_v = occ.world_to_voxel(np.array([[0.70, 0.50, 0.55]]))  # 10 cm in front: the hand's way in
+    far_v = occ.world_to_voxel(np.array([[0.20, 0.50, 0.40], [0.25, 0.40, 0.40]]))  # the arm's, by the base
+    needed = [np.vstack([near_v, far_v]), far_v]
+    out = near_target_first(occ, needed, points, 0.2)
+    assert [len(n) for n in out] == [1, 0]
+    assert np.array_equal(out[0], near_v)
+    # no hypothesis needs a voxel next to the target: all of them are aimed at
+    only_far = near_target_first(occ, [far_v, far_v[:1]], points, 0.2)
+    assert [len(n) for n in only_far] == [2, 1]
+    # off (margin 0): unchanged
+    assert [len(n) for n in near_target_first(occ, needed, points, 0.0)] == [3, 2]
+
+
+def test_inspect_config_rejects_a_negative_near_first():
+    from compass_manip.errors import CompassInputError
+    with pytest.raises(CompassInputError, match="near_first"):
+        InspectConfig(near_first=-0.1)

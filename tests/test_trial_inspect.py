@@ -148,3 +148,12 @@ def test_inspect_config_rejects_bad_plan_groups():
         InspectConfig(plan_groups=0)
     with pytest.raises(CompassInputError, match="up_cone"):
         InspectConfig(up_cone=3.0)
+
+
+def test_the_trials_inspect_escapes_and_tries_three_view_groups_without_looking_up():
+    """The trial's INSPECT (branch sevt): the escape from a start its checker refuses and up to 3
+    view groups a step, as the grasp-only harness; the looks up stay the harness's only."""
+    from compass_manip.trial.config import GraspTrialConfig
+    c = GraspTrialConfig().inspect
+    assert c.escape and c.plan_groups == 3
+    assert c.n_up == 0 and c.n_views == 20 and c.near_first == 0.0

@@ -55,6 +55,23 @@ def weighted_voxels(occ: OccupancyMap, needed: list[np.ndarray], weights: np.nda
     return occ.voxel_to_world(np.stack(np.unravel_index(u, shape), axis=1)), np.bincount(inv, weights=w)
 
 
+def near_target_first(occ: OccupancyMap, needed: list[np.ndarray], points: np.ndarray,
+                      margin: float) -> list[np.ndarray]:
+    """Per hypothesis, its needed voxel indices (K,3) inside the box of the detection's
+    points (N,3) [m] grown by margin [m], when some hypothesis needs a voxel there (the
+    hand's way in: unknown space next to the target that no assumption covers and only a
+    view into the confined space sees); otherwise `needed` unchanged (margin 0: unchanged)."""
+    pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    if margin <= 0.0 or len(pts) == 0 or not needed:
+        return needed
+    lo, hi = pts.min(axis=0) - margin, pts.max(axis=0) + margin
+    near = []
+    for n in needed:
+        c = occ.voxel_to_world(np.asarray(n).reshape(-1, 3)) if len(n) else np.zeros((0, 3))
+        near.append(np.asarray(n).reshape(-1, 3)[np.all((c >= lo) & (c <= hi), axis=1)])
+    return near if any(len(n) for n in near) else needed
+
+
 def view_candidates(hyp_axes: list[tuple[np.ndarray, np.ndarray]], centre: np.ndarray, around: np.ndarray,
                     config: InspectConfig, rng: np.random.Generator) -> np.ndarray:
     """(M,4,4) camera poses: n_per_axis around each (approach z (3,), look point (3,)) in
@@ -199,6 +216,9 @@ class GraspInspector:
         self.last = {"n_hypotheses": len(hyps), "needed": counts, "optimistic_rejections": dict(self.stats)}
         if not hyps or min(counts) <= config.done_unknown:
             return InspectPlan(None, 0, 0, time.perf_counter() - t0, planned=False)
+        needed = near_target_first(occ, needed, detection.points_world, config.near_first)
+        counts = [len(n) for n in needed]  # the voxels the views aim at (the stop rule counted all)
+        self.last["aimed"] = counts
         w_h = np.array([h.score for h in hyps])  # each hypothesis weighs its score, spread over its voxels
         vox, w = weighted_voxels(occ, needed, w_h / np.maximum(counts, 1))
         axes = []

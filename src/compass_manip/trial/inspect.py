@@ -56,7 +56,11 @@ class InspectConfig:
     the current configuration is invalid for the method's checker (the grasp-only harness's
     oracle view stands within the checker's margin of the rail it looks past, and no plan can
     start there), the grasp mode first moves out along `exploration.escape.escape_path`, the
-    short way out every method takes, and plans from there (False: no plan, as before)."""
+    short way out every method takes, and plans from there (False: no plan, as before).
+    near_first [m] (0: off): the grasp mode aims its views at the needed voxels inside the
+    detection points' box grown by near_first (the hand's way in, which only a view into the
+    confined space sees) while any hypothesis still needs one there, and at all of them
+    after (`trial.grasp_views.near_target_first`); the stop rule counts all of them."""
 
     n_views: int = 6
     mode: str = "grasp"
@@ -76,6 +80,7 @@ class InspectConfig:
     up_cone: float = 0.5
     plan_groups: int = 3
     escape: bool = True
+    near_first: float = 0.0
     n_samples: int = 300
     sigma: float = 0.12
     wrist_sigma: float = 0.5
@@ -112,7 +117,7 @@ class InspectConfig:
                                     f"{self.done_unknown} not allowed; use 0.1 <= lo <= hi <= 1 m, 0..100, 0..100, "
                                     "0..1000, 1..100, >= 0")
         for name in ("sigma", "wrist_sigma", "corridor", "side", "above", "max_range", "axis_cone", "around_cone",
-                     "min_fraction", "up_elevation", "up_cone"):
+                     "min_fraction", "up_elevation", "up_cone", "near_first"):
             if not 0.0 <= getattr(self, name) <= 2.0:
                 raise CompassInputError(f"{name} {getattr(self, name)} is not allowed; use 0..2")
 
