@@ -25,10 +25,12 @@ Prints one JSON line per scene. Run:
 from __future__ import annotations
 
 import argparse
+import ast
 import json
 import math
 import os
 import sys
+from dataclasses import replace
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
@@ -37,7 +39,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from capture_select_inputs import capture_arguments, read_captures
-from compass_manip.grasp.candidates import AntipodalProposer, GraspCandidates, PinnedProposer
+from compass_manip.grasp.candidates import AntipodalProposer, GraspCandidates, PinnedProposer, depth_keep
 from compass_manip.grasp.quality import graspnet_score, graspnet_score_cones, required_mu
 from compass_manip.grasp.select import GraspSelectConfig, select_grasp
 from compass_manip.grasp.target import normal_cones
@@ -211,14 +213,16 @@ def physics(scene, sel, q_start) -> dict:
     return out
 
 
-def current_inputs(box: dict):
+def current_inputs(box: dict, cand_set: dict | None = None):
     """The selection's config and proposer as the current code would make them: the default
     `GraspSelectConfig` (a capture pickles the config of its day) and the captured pinned
     hypotheses (INSPECT's, made by the proposer of that day) in front of a fresh
     `AntipodalProposer`; each pinned candidate's contacts are looked up among the model's
-    points and re-scored with their edge cones when the config scores with them (its pose,
-    at the depth INSPECT chose, is kept), and dropped at s = 0."""
+    points and re-scored with their edge cones when the config scores with them, and dropped
+    at s = 0 or where the depth rules (`candidates.depth_keep`, each hand alone, at the depth
+    INSPECT chose) drop it."""
     config = GraspSelectConfig()
+    config = replace(config, candidates=replace(config.candidates, **(cand_set or {})))
     cc = config.candidates
     prop = box.get("proposer")
     fresh = AntipodalProposer(cc)
@@ -232,6 +236,9 @@ def current_inputs(box: dict):
         cones = normal_cones(t.points, t.normals, ends, cc.edge_radius, cc.edge_k, cc.edge_angle)
         s = graspnet_score_cones(pin.p1, pin.p2, cones[np.searchsorted(ends, i)], cones[np.searchsorted(ends, j)])
         pin = GraspCandidates(pin.T_world_tcp, pin.width, s, pin.p1, pin.p2, pin.n1, pin.n2).take(np.nonzero(s > 0)[0])
+    if len(pin):  # the depth rules on each pinned hand alone (its depth: the TCP past the contacts' midpoint)
+        d = np.sum((pin.T_world_tcp[:, :3, 3] - 0.5 * (pin.p1 + pin.p2)) * pin.approach, axis=1)
+        pin = pin.take(np.nonzero(depth_keep(t.points, pin.T_world_tcp, pin.width, d, np.arange(len(pin)), cc))[0])
     return config, PinnedProposer(fresh, pin)
 
 
@@ -240,13 +247,16 @@ def main() -> int:
     ap.add_argument("--current", action="store_true",
                     help="select with the current code's default config and proposer (`current_inputs`), "
                          "not the captured ones")
+    ap.add_argument("--cand-set", nargs="*", default=[],
+                    help="with --current: CandidateConfig field=value overrides (python literals)")
     args = ap.parse_args()
+    cand_set = {k: ast.literal_eval(v) for k, v in (a.split("=", 1) for a in args.cand_set)}
     for level, index, box in read_captures(args.dir, args.only):
         scene = certified_scene(level, index, args.seed).scene
         world = World(scene)
         spheres = panda_sphere_model(world.robot)
         world.close()
-        config, proposer = current_inputs(box) if args.current else (box["config"], box.get("proposer"))
+        config, proposer = current_inputs(box, cand_set) if args.current else (box["config"], box.get("proposer"))
         sel = select_grasp(box["target"], box["occ"], box["task"], box["q"], spheres, config, box["rng"],
                            proposer=proposer, extra_safe=box["extra_safe"], fine_map=box.get("fine_map"))
         prims = PrimitiveSet.from_shapes(list(scene.target.parts))

@@ -143,6 +143,12 @@ def test_depth_samples_stay_within_the_opening_and_the_pads():
     assert span[0] < 0.021 and span[2] > 0.04  # the plate, 2.6 cm beyond the axis, is between the pads at 2 cm
     keep = depth_keep(P2, T, np.full(3, 0.04), depths, np.arange(3), CandidateConfig())
     assert keep.tolist() == [True, True, False]
+    assert keep.dtype == bool
+    # the opening test at depth 0 too (opening_all): a hand whose pads would land on the plate
+    T0 = hands(c + [0.017, 0.0, 0.0], [0.0])  # the plate 9 mm beyond the TCP, at the fingertips
+    assert depth_keep(P2, T0, np.full(1, 0.03), np.zeros(1), np.zeros(1, int), CandidateConfig()).tolist() == [True]
+    assert depth_keep(P2, T0, np.full(1, 0.03), np.zeros(1), np.zeros(1, int),
+                      CandidateConfig(opening_all=True)).tolist() == [False]
     N = P - c
     N[:, 2] = 0.0
     N /= np.linalg.norm(N, axis=1, keepdims=True)

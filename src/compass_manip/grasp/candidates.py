@@ -65,7 +65,7 @@ class CandidateConfig:
     within the hand's opening; and where some depth of a pair's approach puts the section's
     centre (the mean along the approach of the target's points between the pads: a round
     target's axis) at least `centre_margin` [m] inside the fingertips, the depths that do not
-    are dropped (level 3 scene 6 of seed 0: a front chord of a bottle at d = 0, its axis 2 mm
+    are dropped; opening_all: the opening test at every depth, d = 0 too (level 3 scene 6 of seed 0: a front chord of a bottle at d = 0, its axis 2 mm
     beyond the fingertips in truth, was wedged out of the pads).
     edge_angle [rad] (None: off): a contact whose neighbours within edge_radius [m] (its
     edge_k - 1 nearest) have normals more than edge_angle from its own is on an edge, and the
@@ -88,6 +88,7 @@ class CandidateConfig:
     edge_angle: float | None = math.radians(30.0)
     edge_radius: float = 0.006
     edge_k: int = 9
+    opening_all: bool = False
 
     def __post_init__(self) -> None:
         if not self.depths or any(not 0.0 <= d <= PAD_BACK - 0.005 for d in self.depths):
@@ -466,10 +467,12 @@ def depth_keep(points: np.ndarray, T_world_tcp: np.ndarray, width: np.ndarray, d
     some kept sample has the section's centre at most PAD_TIP - centre_margin beyond the TCP,
     only those are kept."""
     depth, group = np.asarray(depth, dtype=np.float64), np.asarray(group, dtype=np.int64)
-    if len(depth) == 0 or (len(config.depths) == 1 and config.depths[0] == 0.0):
+    if len(depth) == 0 or (len(config.depths) == 1 and config.depths[0] == 0.0 and not config.opening_all):
         return np.ones(len(depth), dtype=bool)
     span, centre = pad_section(points, T_world_tcp, width)
-    ok = (depth <= 0.0) | (span <= 0.5 * GRIPPER_MAX_WIDTH - config.width_clearance)
+    ok = (span <= 0.5 * GRIPPER_MAX_WIDTH - config.width_clearance)
+    if not config.opening_all:
+        ok |= depth <= 0.0
     inside = ok & (centre <= PAD_TIP - config.centre_margin)  # NaN: not inside
     has = np.zeros(int(group.max()) + 1, dtype=bool)
     has[group[inside]] = True
