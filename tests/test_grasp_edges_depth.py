@@ -145,7 +145,7 @@ def test_depth_samples_stay_within_the_opening_and_the_pads():
     assert keep.tolist() == [True, True, False]
     assert keep.dtype == bool
     # the opening test at depth 0 too (opening_all): a hand whose pads would land on the plate
-    T0 = hands(c + [0.017, 0.0, 0.0], [0.0])  # the plate 9 mm beyond the TCP, at the fingertips
+    T0 = hands(c + [0.02, 0.0, 0.0], [0.0])  # the plate 6 mm beyond the TCP, between the pads
     assert depth_keep(P2, T0, np.full(1, 0.03), np.zeros(1), np.zeros(1, int), CandidateConfig()).tolist() == [True]
     assert depth_keep(P2, T0, np.full(1, 0.03), np.zeros(1), np.zeros(1, int),
                       CandidateConfig(opening_all=True)).tolist() == [False]
