@@ -6,13 +6,13 @@ import numpy as np
 import pytest
 
 from compass_manip.errors import CompassInputError
-from compass_manip.grasp.candidates import (PAD_BACK, PAD_TIP, CandidateConfig, antipodal_candidates, depth_keep,
-                                            pad_section)
+from compass_manip.grasp.candidates import (DEEP_EDGE, PAD_BACK, PAD_TIP, CandidateConfig, antipodal_candidates,
+                                            depth_keep, pad_section)
 from compass_manip.grasp.quality import graspnet_score, graspnet_score_cones, required_mu_cones
 from compass_manip.grasp.target import TargetModel, normal_cones, pca_normals, principal_axes, thin
 from compass_manip.robot.model import GRIPPER_MAX_WIDTH
 
-EDGE = CandidateConfig()
+EDGE = CandidateConfig(**DEEP_EDGE)
 
 
 def solid_box(half, centre=(0.6, 0.0, 0.4), step=0.004):
@@ -62,7 +62,7 @@ def test_candidates_on_a_box_keep_rim_contacts_only_where_the_cone_allows():
     model = TargetModel(P, N, np.ones(len(P), bool), P.mean(0), axes, ext, np.array([1.0, 0, 0]))
     top = P[:, 2].max()
     off = antipodal_candidates(model, CandidateConfig(n_contacts=300, edge_angle=None), np.random.default_rng(2))
-    on = antipodal_candidates(model, CandidateConfig(n_contacts=300), np.random.default_rng(2))
+    on = antipodal_candidates(model, CandidateConfig(n_contacts=300, **DEEP_EDGE), np.random.default_rng(2))
     rim = lambda c: np.maximum(c.p1[:, 2], c.p2[:, 2]) > top - 0.002  # noqa: E731
     tilted = lambda c: np.abs(c.p2[:, 2] - c.p1[:, 2]) / c.width > math.sin(math.radians(20.0))  # noqa: E731
     assert np.count_nonzero(rim(off) & tilted(off)) > 0
@@ -119,14 +119,14 @@ def test_a_front_chord_whose_axis_lies_beyond_the_fingertips_is_taken_deeper():
     T = hands(mid, depths)
     _, centre = pad_section(P, T, np.full(3, w))
     assert centre == pytest.approx(0.008 - depths, abs=1.5e-3)
-    keep = depth_keep(P, T, np.full(3, w), depths, np.zeros(3, int), CandidateConfig())
+    keep = depth_keep(P, T, np.full(3, w), depths, np.zeros(3, int), EDGE)
     assert keep.tolist() == [False, True, True]
     keep0 = depth_keep(P, T[:1], np.full(1, w), depths[:1], np.zeros(1, int), CandidateConfig(depths=(0.0,)))
     assert keep0.tolist() == [True]
     # an approach whose centre no depth brings inside keeps all its samples
     far = hands(c + [-0.025, 0.0, 0.0], depths)  # a chord near the front: the axis 25 mm beyond the TCP
     w_far = 2 * math.sqrt(0.03 ** 2 - 0.025 ** 2)
-    assert depth_keep(P, far, np.full(3, w_far), depths, np.zeros(3, int), CandidateConfig()).all()
+    assert depth_keep(P, far, np.full(3, w_far), depths, np.zeros(3, int), EDGE).all()
 
 
 def test_depth_samples_stay_within_the_opening_and_the_pads():
@@ -141,27 +141,28 @@ def test_depth_samples_stay_within_the_opening_and_the_pads():
     T = hands(c, depths)
     span, _ = pad_section(P2, T, np.full(3, 0.04))
     assert span[0] < 0.021 and span[2] > 0.04  # the plate, 2.6 cm beyond the axis, is between the pads at 2 cm
-    keep = depth_keep(P2, T, np.full(3, 0.04), depths, np.arange(3), CandidateConfig())
+    keep = depth_keep(P2, T, np.full(3, 0.04), depths, np.arange(3), EDGE)
     assert keep.tolist() == [True, True, False]
     assert keep.dtype == bool
     # the opening test at depth 0 too (opening_all): a hand whose pads would land on the plate
     T0 = hands(c + [0.02, 0.0, 0.0], [0.0])  # the plate 6 mm beyond the TCP, between the pads
-    assert depth_keep(P2, T0, np.full(1, 0.03), np.zeros(1), np.zeros(1, int), CandidateConfig()).tolist() == [True]
+    assert depth_keep(P2, T0, np.full(1, 0.03), np.zeros(1), np.zeros(1, int), EDGE).tolist() == [True]
     assert depth_keep(P2, T0, np.full(1, 0.03), np.zeros(1), np.zeros(1, int),
-                      CandidateConfig(opening_all=True)).tolist() == [False]
+                      CandidateConfig(opening_all=True, **DEEP_EDGE)).tolist() == [False]
     N = P - c
     N[:, 2] = 0.0
     N /= np.linalg.norm(N, axis=1, keepdims=True)
     axes, ext = principal_axes(P)
     model = TargetModel(P, N, np.ones(len(P), bool), c, axes, ext, np.array([1.0, 0, 0]))
-    cands = antipodal_candidates(model, CandidateConfig(n_contacts=150), np.random.default_rng(4))
+    cands = antipodal_candidates(model, CandidateConfig(n_contacts=150, **DEEP_EDGE), np.random.default_rng(4))
     assert len(cands) > 0
     mid = 0.5 * (cands.p1 + cands.p2)
     z_contacts = np.sum((mid - cands.T_world_tcp[:, :3, 3]) * cands.approach, axis=1)
     assert np.all(z_contacts <= PAD_TIP) and np.all(z_contacts >= -PAD_BACK)
     assert np.any(z_contacts < -0.005)  # deeper samples are among them
     span, _ = pad_section(P, cands.T_world_tcp, cands.width)
-    assert np.all(span[z_contacts < 0] <= 0.5 * GRIPPER_MAX_WIDTH - CandidateConfig().width_clearance + 1e-12)
+    assert np.all(span[z_contacts < 0] <= 0.5 * GRIPPER_MAX_WIDTH - EDGE.width_clearance + 1e-12)
+    assert np.all(antipodal_candidates(model, CandidateConfig(n_contacts=150), np.random.default_rng(4)).score > 0)
 
 
 def test_depth_and_edge_settings_are_checked():
