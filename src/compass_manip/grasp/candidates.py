@@ -65,8 +65,9 @@ class CandidateConfig:
     within the hand's opening; and where some depth of a pair's approach puts the section's
     centre (the mean along the approach of the target's points between the pads: a round
     target's axis) at least `centre_margin` [m] inside the fingertips, the depths that do not
-    are dropped; opening_all: the opening test at every depth, d = 0 too (level 3 scene 6 of seed 0: a front chord of a bottle at d = 0, its axis 2 mm
-    beyond the fingertips in truth, was wedged out of the pads).
+    are dropped (level 3 scene 6 of seed 0: a front chord of a bottle at d = 0, its axis 2 mm
+    beyond the fingertips in truth, was wedged out of the pads); opening_all: the opening
+    test at every depth, d = 0 too (off: it was not measured in full runs).
     edge_angle [rad] (None: off): a contact whose neighbours within edge_radius [m] (its
     edge_k - 1 nearest) have normals more than edge_angle from its own is on an edge, and the
     pair is scored with every normal of its cone (`target.normal_cones`,
