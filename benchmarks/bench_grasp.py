@@ -31,7 +31,7 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 import numpy as np
 
 from compass_manip.bench.stats import emit_samples, emit_value, load_average
-from compass_manip.grasp.candidates import AntipodalProposer, propose_in_cone
+from compass_manip.grasp.candidates import DEEP_EDGE, AntipodalProposer, CandidateConfig, propose_in_cone
 from compass_manip.grasp.select import GraspSelectConfig, desired_approach
 from compass_manip.sim.certify import certified_scene
 from compass_manip.mapping.occupancy import MapConfig
@@ -138,7 +138,8 @@ def main() -> int:
                     help="InspectConfig field=value overrides (python literals), e.g. n_up=0 escape=False")
     ap.add_argument("--select-set", nargs="*", default=[],
                     help="GraspSelectConfig field=value overrides (python literals; PlannerConfig(...) allowed), e.g. "
-                         "max_failed_plans=6 'planner=PlannerConfig()' (main's budget before branch gmod)")
+                         "max_failed_plans=6 'planner=PlannerConfig()' (main's budget before branch gmod); "
+                         "'candidates=CandidateConfig(**DEEP_EDGE)' (branch gdeep's depth samples and edge cones)")
     args = ap.parse_args()
     inspect = InspectConfig() if args.inspect_views is None else InspectConfig(n_views=args.inspect_views)
     inspect = replace(inspect, **{k: ast.literal_eval(v) for k, v in (s.split("=", 1) for s in args.inspect_set)})
@@ -151,7 +152,8 @@ def main() -> int:
             scene = certified_scene(level, index, args.seed).scene
             for constrained in variants:
                 select = GraspSelectConfig(constrained=constrained)
-                select = replace(select, **{k: eval(v, {"PlannerConfig": PlannerConfig})  # noqa: S307 (a bench flag)
+                select = replace(select, **{k: eval(v, {"PlannerConfig": PlannerConfig,  # noqa: S307 (a bench flag)
+                                                        "CandidateConfig": CandidateConfig, "DEEP_EDGE": DEEP_EDGE})
                                             for k, v in (a.split("=", 1) for a in args.select_set)})
                 if args.plan_budget is not None:
                     select = replace(select, planner=replace(select.planner, time_budget=args.plan_budget, max_checks=None))

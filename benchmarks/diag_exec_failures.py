@@ -25,19 +25,24 @@ Prints one JSON line per scene. Run:
 from __future__ import annotations
 
 import argparse
+import ast
 import json
 import math
 import os
 import sys
+from dataclasses import replace
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 import mujoco
 import numpy as np
+from scipy.spatial import cKDTree
 
 from capture_select_inputs import capture_arguments, read_captures
-from compass_manip.grasp.quality import graspnet_score, required_mu
-from compass_manip.grasp.select import select_grasp
+from compass_manip.grasp.candidates import AntipodalProposer, GraspCandidates, PinnedProposer, depth_keep
+from compass_manip.grasp.quality import graspnet_score, graspnet_score_cones, required_mu
+from compass_manip.grasp.select import GraspSelectConfig, select_grasp
+from compass_manip.grasp.target import normal_cones
 from compass_manip.motion.primitives import PrimitiveSet
 from compass_manip.robot.model import GRIPPER_MAX_WIDTH
 from compass_manip.robot.spheres import panda_sphere_model
@@ -208,16 +213,52 @@ def physics(scene, sel, q_start) -> dict:
     return out
 
 
+def current_inputs(box: dict, cand_set: dict | None = None):
+    """The selection's config and proposer as the current code would make them: the default
+    `GraspSelectConfig` (a capture pickles the config of its day) and the captured pinned
+    hypotheses (INSPECT's, made by the proposer of that day) in front of a fresh
+    `AntipodalProposer`; each pinned candidate's contacts are looked up among the model's
+    points and re-scored with their edge cones when the config scores with them, and dropped
+    at s = 0 or where the depth rules (`candidates.depth_keep`, each hand alone, at the depth
+    INSPECT chose) drop it."""
+    config = GraspSelectConfig()
+    config = replace(config, candidates=replace(config.candidates, **(cand_set or {})))
+    cc = config.candidates
+    prop = box.get("proposer")
+    fresh = AntipodalProposer(cc)
+    if not isinstance(prop, PinnedProposer):
+        return config, fresh
+    pin, t = prop.pinned, box["target"]
+    if len(pin) and cc.edge_angle is not None:
+        _, i = cKDTree(t.points).query(pin.p1)
+        _, j = cKDTree(t.points).query(pin.p2)
+        ends = np.unique(np.concatenate([i, j]))
+        cones = normal_cones(t.points, t.normals, ends, cc.edge_radius, cc.edge_k, cc.edge_angle)
+        s = graspnet_score_cones(pin.p1, pin.p2, cones[np.searchsorted(ends, i)], cones[np.searchsorted(ends, j)])
+        pin = GraspCandidates(pin.T_world_tcp, pin.width, s, pin.p1, pin.p2, pin.n1, pin.n2).take(np.nonzero(s > 0)[0])
+    if len(pin):  # the depth rules on each pinned hand alone (its depth: the TCP past the contacts' midpoint)
+        d = np.sum((pin.T_world_tcp[:, :3, 3] - 0.5 * (pin.p1 + pin.p2)) * pin.approach, axis=1)
+        pin = pin.take(np.nonzero(depth_keep(t.points, pin.T_world_tcp, pin.width, d, np.arange(len(pin)), cc))[0])
+    return config, PinnedProposer(fresh, pin)
+
+
 def main() -> int:
     ap = capture_arguments(argparse.ArgumentParser())
+    ap.add_argument("--current", action="store_true",
+                    help="select with the current code's default config and proposer (`current_inputs`), "
+                         "not the captured ones")
+    ap.add_argument("--cand-set", nargs="*", default=[],
+                    help="with --current: CandidateConfig field=value overrides (python literals)")
     args = ap.parse_args()
+    cand_set = {k: ast.literal_eval(v) for k, v in (a.split("=", 1) for a in args.cand_set)}
     for level, index, box in read_captures(args.dir, args.only):
         scene = certified_scene(level, index, args.seed).scene
         world = World(scene)
         spheres = panda_sphere_model(world.robot)
         world.close()
-        sel = select_grasp(box["target"], box["occ"], box["task"], box["q"], spheres, box["config"], box["rng"],
-                           proposer=box.get("proposer"), extra_safe=box["extra_safe"], fine_map=box.get("fine_map"))
+        config, proposer = current_inputs(box, cand_set) if args.current else (box["config"], box.get("proposer"))
+        sel = select_grasp(box["target"], box["occ"], box["task"], box["q"], spheres, config, box["rng"],
+                           proposer=proposer, extra_safe=box["extra_safe"], fine_map=box.get("fine_map"))
         prims = PrimitiveSet.from_shapes(list(scene.target.parts))
         rec = {"level": level, "index": index, "model": model_error(box["target"], prims, scene.target)}
         if sel.failure is not None:

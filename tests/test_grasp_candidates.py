@@ -44,7 +44,11 @@ def test_candidates_are_force_closure_within_the_hand_and_well_formed():
     assert np.allclose(np.linalg.det(R), 1.0)
     line = (c.p2 - c.p1) / np.linalg.norm(c.p2 - c.p1, axis=1, keepdims=True)
     assert np.allclose(np.abs(np.sum(R[:, :, 1] * line, axis=1)), 1.0, atol=1e-9)  # y = closing line
-    assert np.allclose(c.T_world_tcp[:, :3, 3], 0.5 * (c.p1 + c.p2))
+    # the TCP at one of the depths past the contacts' midpoint, along the approach
+    off = c.T_world_tcp[:, :3, 3] - 0.5 * (c.p1 + c.p2)
+    d = np.sum(off * c.approach, axis=1)
+    assert np.allclose(off, d[:, None] * c.approach, atol=1e-12)
+    assert np.all(np.min(np.abs(d[:, None] - np.array(CandidateConfig().depths)), axis=1) < 1e-12)
     # face-to-face pairs across the 4 and 5 cm sides score 1.0
     best = c.score == 1.0
     assert best.any()

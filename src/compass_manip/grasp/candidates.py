@@ -23,8 +23,8 @@ from numba import njit, prange
 
 from ..errors import CompassInputError
 from ..robot.model import GRIPPER_MAX_WIDTH
-from .quality import graspnet_score
-from .target import TargetModel, thin
+from .quality import graspnet_score, graspnet_score_cones
+from .target import TargetModel, normal_cones, thin
 
 #: Length [m] of the Panda fingers from the TCP (pad centre) back to the palm, less a margin.
 PALM_DEPTH = 0.035
@@ -32,6 +32,13 @@ PALM_DEPTH = 0.035
 FINGER_HALF_WIDTH = 0.01
 #: Spacing [m] of the target points checked against the palm.
 PALM_POINT_SPACING = 0.008
+#: How far [m] the finger pads reach beyond the TCP (the Panda's finger collision boxes span
+#: z = -0.035..+0.009 m in the TCP frame, 24 mm across the closing line).
+PAD_TIP = 0.009
+#: How far [m] the pads reach behind the TCP (their back end, at the palm side).
+PAD_BACK = 0.035
+#: Half the pads' extent [m] across the closing line (x of the hand frame).
+PAD_HALF_X = 0.012
 
 
 @dataclass(frozen=True)
@@ -51,7 +58,23 @@ class CandidateConfig:
     side under a tilted closing line touches it along one of its own edges). Both off by
     default: on levels 1 + 3 of seed 0 they turned the executed grasps that dropped or
     slipped into selection failures without a grasp gained (docs/grasping_log.md, branch
-    gmod)."""
+    gmod).
+    Depths (GraspNet samples several per approach): a pair's hand is placed at each depth d
+    [m] (the contacts d behind the TCP, on the pads while d <= PAD_BACK - 5 mm); a deeper one
+    (d > 0) is kept only when the target's points between the pads (`pad_section`) stay
+    within the hand's opening; and where some depth of a pair's approach puts the section's
+    centre (the mean along the approach of the target's points between the pads: a round
+    target's axis) at least `centre_margin` [m] inside the fingertips, the depths that do not
+    are dropped (level 3 scene 6 of seed 0: a front chord of a bottle at d = 0, its axis 2 mm
+    beyond the fingertips in truth, was wedged out of the pads); opening_all: the opening
+    test at every depth, d = 0 too (off: it was not measured in full runs).
+    edge_angle [rad] (None: off): a contact whose neighbours within edge_radius [m] (its
+    edge_k - 1 nearest) have normals more than edge_angle from its own is on an edge, and the
+    pair is scored with every normal of its cone (`target.normal_cones`,
+    `quality.graspnet_score_cones`) instead of its blended PCA normal.
+    Both off by default (`DEEP_EDGE` turns them on): on levels 1 + 3 of seed 0 together they
+    grasped 35/40 against 34/40, but 16/20 against 17/20 on the fresh scenes 10-19
+    (docs/grasping_log.md, branch gdeep)."""
 
     n_contacts: int = 120
     n_directions: int = 4
@@ -61,12 +84,27 @@ class CandidateConfig:
     width_clearance: float = 0.006
     min_width: float = 0.01
     depths: tuple[float, ...] = (0.0,)
+    centre_margin: float = 0.005
     top_fraction: float = 0.5
     top_band: float = 0.05
     top_margin: float = 0.0
     max_tilt: float | None = None
+    edge_angle: float | None = None
+    edge_radius: float = 0.006
+    edge_k: int = 9
+    opening_all: bool = False
 
     def __post_init__(self) -> None:
+        if not self.depths or any(not 0.0 <= d <= PAD_BACK - 0.005 for d in self.depths):
+            raise CompassInputError(f"depths {self.depths} m are not allowed; give at least one in "
+                                    f"0..{PAD_BACK - 0.005:.3f} m (the contacts must stay on the pads)")
+        if not 0.0 <= self.centre_margin <= PAD_TIP + PAD_BACK:
+            raise CompassInputError(f"centre_margin {self.centre_margin} m is not allowed; use 0..0.044 m")
+        if self.edge_angle is not None and not 0.0 < self.edge_angle < np.pi / 2:
+            raise CompassInputError(f"edge_angle {self.edge_angle} rad is not allowed; use (0, pi/2) or None")
+        if not 0.0 < self.edge_radius <= 0.05 or not 2 <= self.edge_k <= 64:
+            raise CompassInputError(f"edge_radius {self.edge_radius} m / edge_k {self.edge_k} not allowed; "
+                                    "use (0, 0.05] m and 2..64")
         if not 0.0 <= self.top_margin <= 0.05:
             raise CompassInputError(f"top_margin {self.top_margin} m is not allowed; use 0..0.05 m")
         if self.max_tilt is not None and not 0.0 <= self.max_tilt <= np.pi / 2:
@@ -88,6 +126,11 @@ class CandidateConfig:
     def max_width(self) -> float:
         """Widest contact pair [m] accepted."""
         return GRIPPER_MAX_WIDTH - 2 * self.width_clearance
+
+
+#: The options of branch gdeep: depth samples 0, 1 and 2 cm and edge cones at 30 deg
+#: (`CandidateConfig(**DEEP_EDGE)`).
+DEEP_EDGE = {"depths": (0.0, 0.01, 0.02), "edge_angle": math.radians(30.0)}
 
 
 @dataclass(frozen=True, eq=False)
@@ -340,10 +383,15 @@ def antipodal_candidates(target: TargetModel, config: CandidateConfig | None = N
     if config.max_tilt is not None:  # the closing line's rise over its length
         keep &= np.abs(p2[:, 2] - p1[:, 2]) <= np.sin(config.max_tilt) * width
     if not keep.all():
-        p1, p2, n1, n2, width = p1[keep], p2[keep], n1[keep], n2[keep], width[keep]
+        p1, p2, n1, n2, width, i, j = p1[keep], p2[keep], n1[keep], n2[keep], width[keep], i[keep], j[keep]
         if len(p1) == 0:
             return GraspCandidates.empty()
-    score = graspnet_score(p1, p2, n1, n2)
+    if config.edge_angle is None:
+        score = graspnet_score(p1, p2, n1, n2)
+    else:
+        ends = np.unique(np.concatenate([i, j]))
+        cones = normal_cones(P, N, ends, config.edge_radius, config.edge_k, config.edge_angle)
+        score = graspnet_score_cones(p1, p2, cones[np.searchsorted(ends, i)], cones[np.searchsorted(ends, j)])
     keep = score > 0
     p1, p2, n1, n2, width, score = p1[keep], p2[keep], n1[keep], n2[keep], width[keep], score[keep]
     if len(p1) == 0:
@@ -358,8 +406,10 @@ def antipodal_candidates(target: TargetModel, config: CandidateConfig | None = N
     good = np.isfinite(r)
     kk, r = kk[good], r[good]
     a = np.cos(r)[:, None] * e1[kk] + np.sin(r)[:, None] * e2[kk]
-    Ts, idx = [], []
-    for sign in (1.0, -1.0):  # the hand is symmetric, its wrist camera is not
+    if len(kk) == 0:
+        return GraspCandidates.empty()
+    Ts, idx, dep, grp = [], [], [], []
+    for s_i, sign in enumerate((1.0, -1.0)):  # the hand is symmetric, its wrist camera is not
         yk = sign * y[kk]
         Rm = np.stack([np.cross(yk, a), yk, a], axis=-1)
         for d in config.depths:
@@ -369,10 +419,70 @@ def antipodal_candidates(target: TargetModel, config: CandidateConfig | None = N
             T[:, 3, 3] = 1.0
             Ts.append(T)
             idx.append(kk)
-    if not Ts or sum(len(t) for t in Ts) == 0:
-        return GraspCandidates.empty()
-    T = np.concatenate(Ts)
-    idx = np.concatenate(idx)
-    clear = palm_clear(P, T, width[idx])
-    T, idx = T[clear], idx[clear]
+            dep.append(np.full(len(kk), d))
+            grp.append(s_i * len(kk) + np.arange(len(kk)))  # one group: a pair's approach, one way round
+    T, idx, dep, grp = (np.concatenate(v) for v in (Ts, idx, dep, grp))
+    keep = depth_keep(P, T, width[idx], dep, grp, config)
+    clear = palm_clear(P, T[keep], width[idx[keep]])
+    T, idx = T[keep][clear], idx[keep][clear]
     return GraspCandidates(T, width[idx], score[idx], p1[idx], p2[idx], n1[idx], n2[idx])
+
+
+def pad_section(points: np.ndarray, T_world_tcp: np.ndarray, width: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """For each hand (M,4,4) with contact width (M,) [m]: the largest |y| [m] (across the
+    closing line, from the TCP) of the target points (N,3) [m] that lie within the pads'
+    extent (|x| <= PAD_HALF_X, -PAD_BACK <= z <= PAD_TIP) - the opening they need - and the
+    section's centre [m]: the mean z of the points within |x| <= PAD_HALF_X and |y| <= w/2 +
+    1 cm (any z: the whole section across the pads, beyond the fingertips too; NaN without
+    one). One numba pass."""
+    P = np.ascontiguousarray(points, dtype=np.float64)
+    T = np.ascontiguousarray(np.asarray(T_world_tcp, dtype=np.float64).reshape(-1, 4, 4))
+    return _pad_section(P, T, np.ascontiguousarray(width, dtype=np.float64), PAD_HALF_X, PAD_BACK, PAD_TIP)
+
+
+@njit(cache=True, parallel=True)
+def _pad_section(P, T, width, half_x, back, tip):
+    span = np.zeros(T.shape[0])
+    centre = np.full(T.shape[0], np.nan)
+    for m in prange(T.shape[0]):
+        t0 = T[m, 0, 3] * T[m, 0, 0] + T[m, 1, 3] * T[m, 1, 0] + T[m, 2, 3] * T[m, 2, 0]
+        t1 = T[m, 0, 3] * T[m, 0, 1] + T[m, 1, 3] * T[m, 1, 1] + T[m, 2, 3] * T[m, 2, 1]
+        t2 = T[m, 0, 3] * T[m, 0, 2] + T[m, 1, 3] * T[m, 1, 2] + T[m, 2, 3] * T[m, 2, 2]
+        half_w = 0.5 * width[m] + 0.01
+        zs, nz, sp = 0.0, 0, 0.0
+        for n in range(P.shape[0]):
+            x = P[n, 0] * T[m, 0, 0] + P[n, 1] * T[m, 1, 0] + P[n, 2] * T[m, 2, 0] - t0
+            if abs(x) > half_x:
+                continue
+            y = P[n, 0] * T[m, 0, 1] + P[n, 1] * T[m, 1, 1] + P[n, 2] * T[m, 2, 1] - t1
+            z = P[n, 0] * T[m, 0, 2] + P[n, 1] * T[m, 1, 2] + P[n, 2] * T[m, 2, 2] - t2
+            if -back <= z <= tip and abs(y) > sp:
+                sp = abs(y)
+            if abs(y) <= half_w:
+                zs += z
+                nz += 1
+        span[m] = sp
+        if nz > 0:
+            centre[m] = zs / nz
+    return span, centre
+
+
+def depth_keep(points: np.ndarray, T_world_tcp: np.ndarray, width: np.ndarray, depth: np.ndarray,
+               group: np.ndarray, config: CandidateConfig) -> np.ndarray:
+    """(M,) which depth samples to keep (`CandidateConfig`'s doc): hands (M,4,4) at depth
+    (M,) [m] of pairs of width (M,) [m]; group (M,) labels the samples of one approach. A
+    sample deeper than 0 is kept only when the points within the pads' extent need no more
+    than the hand's opening less the width clearance on each side; then, per group, when
+    some kept sample has the section's centre at most PAD_TIP - centre_margin beyond the TCP,
+    only those are kept."""
+    depth, group = np.asarray(depth, dtype=np.float64), np.asarray(group, dtype=np.int64)
+    if len(depth) == 0 or (len(config.depths) == 1 and config.depths[0] == 0.0 and not config.opening_all):
+        return np.ones(len(depth), dtype=bool)
+    span, centre = pad_section(points, T_world_tcp, width)
+    ok = (span <= 0.5 * GRIPPER_MAX_WIDTH - config.width_clearance)
+    if not config.opening_all:
+        ok |= depth <= 0.0
+    inside = ok & (centre <= PAD_TIP - config.centre_margin)  # NaN: not inside
+    has = np.zeros(int(group.max()) + 1, dtype=bool)
+    has[group[inside]] = True
+    return ok & (inside | ~has[group])
