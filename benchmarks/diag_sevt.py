@@ -131,6 +131,14 @@ def strip(box: dict) -> dict:
                                 "T_world_cam") if k in box}
 
 
+def diagnose_capture(capture: dict, directory: str, level: int, index: int, args) -> dict:
+    """`diag_severe.diagnose` on one captured selection, pickled into directory as it reads it."""
+    os.makedirs(directory, exist_ok=True)
+    with open(os.path.join(directory, f"L{level}_{index}.pkl"), "wb") as f:
+        pickle.dump(strip(capture), f)
+    return diag_severe.diagnose(level, index, args.seed, args.max_arm, directory)
+
+
 def main() -> int:
     ap = argparse.ArgumentParser()
     ap.add_argument("--seed", type=int, default=5151)
@@ -151,21 +159,13 @@ def main() -> int:
                    trial_rejections=t.get("rejections"))
         frame = diag_severe.Frame(certified_scene(level, index, args.seed).scene)
         if "target" in t:
-            d_t = os.path.join(tmp, "trial")
-            os.makedirs(d_t, exist_ok=True)
-            with open(os.path.join(d_t, f"L{level}_{index}.pkl"), "wb") as f:
-                pickle.dump(strip(t), f)
-            rec["trial_diag"] = diag_severe.diagnose(level, index, args.seed, args.max_arm, d_t)
+            rec["trial_diag"] = diagnose_capture(t, os.path.join(tmp, "trial"), level, index, args)
         if not args.no_harness:
             with StepLog() as log:
                 h = harness_capture(certified_scene(level, index, args.seed).scene, args.seed)
             rec["harness_inspect"] = log.steps
             if "target" in h:
-                d_h = os.path.join(tmp, "harness")
-                os.makedirs(d_h, exist_ok=True)
-                with open(os.path.join(d_h, f"L{level}_{index}.pkl"), "wb") as f:
-                    pickle.dump(strip(h), f)
-                rec["harness_diag"] = diag_severe.diagnose(level, index, args.seed, args.max_arm, d_h)
+                rec["harness_diag"] = diagnose_capture(h, os.path.join(tmp, "harness"), level, index, args)
                 if "target" in t:
                     rec["maps"] = compare_maps(t, h, frame, args.radius)
         print(json.dumps(rec, default=lambda o: o.item() if hasattr(o, "item") else str(o)), flush=True)
