@@ -47,6 +47,9 @@
   near-body assumption (`TrialScanConfig.assumed_free`; docs/grasping_log.md, "IG and COMPASS at GRASP").
 * scan_back: the defaults with 64 scan candidates a step looking back at the elbow's band beside
   the base from in front of it (`TrialScanConfig.n_back`), valid for the method's own checker.
+* base_looks: the defaults with up to 3 looks, when INSPECT ends, at its hypotheses' needed
+  voxels outside the confined space (beside / in front of the base), then back the way the arm
+  came (`GraspTrialConfig.looks`, `trial.grasp_looks`).
 """
 from __future__ import annotations
 
@@ -353,3 +356,14 @@ def scan_back_return_config() -> TrialConfig:
 
 def scan_back_return(spec) -> tuple[dict, dict]:
     return _run(spec, scan_back_return_config())
+
+
+def base_looks_config() -> TrialConfig:
+    """The defaults with up to 3 looks at INSPECT's hypotheses' needed voxels outside the confined
+    space when INSPECT ends, then back the way the arm came (`GraspTrialConfig.looks`)."""
+    g = GraspTrialConfig()
+    return TrialConfig(grasp=replace(g, looks=replace(g.looks, max_looks=3)))
+
+
+def base_looks(spec) -> tuple[dict, dict]:
+    return _run(spec, base_looks_config())
