@@ -94,7 +94,7 @@ def test_looks_aim_at_the_needed_voxels_outside_stop_at_their_budget_and_go_back
         base = np.asarray(world.robot.base_pos, float)
         vox = _band_beside_base(wm.occ, base)
         ins = _FakeInspector(wm, world.camera.K, vox)
-        looks = BaseLooks(ins, task, BaseLookConfig(max_looks=2), np.random.default_rng(3))
+        looks = BaseLooks(ins, task, BaseLookConfig(max_looks=2, n_poses=48), np.random.default_rng(3))
         p1 = looks(q_view, None)
         q = q_view
         plans = [p1]
@@ -108,7 +108,7 @@ def test_looks_aim_at_the_needed_voxels_outside_stop_at_their_budget_and_go_back
         world.close()
     assert len(vox) > 100
     assert looks.looks == 2 and looks.stopped == "max_looks" and looks.returned
-    assert len(plans) == 5 and plans[3].path is None  # 2 looks, the way back, INSPECT once more (ended)
+    assert len(plans) == 4 and plans[3].planned is False  # 2 looks, the way back, INSPECT once more (ended)
     assert all(valid_ends)  # the looks' ends are valid for the method's checker
     assert min(seen) > 0.2  # each look's camera frames the voxels it was aimed at
     back = np.asarray(plans[2].path)
