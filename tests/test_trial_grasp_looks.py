@@ -94,7 +94,7 @@ def test_looks_aim_at_the_needed_voxels_outside_stop_at_their_budget_and_go_back
         base = np.asarray(world.robot.base_pos, float)
         vox = _band_beside_base(wm.occ, base)
         ins = _FakeInspector(wm, world.camera.K, vox)
-        looks = BaseLooks(ins, task, BaseLookConfig(max_looks=2, n_poses=48), np.random.default_rng(3))
+        looks = BaseLooks(ins, task, BaseLookConfig(max_looks=2), np.random.default_rng(3))
         p1 = looks(q_view, None)
         q = q_view
         plans = [p1]
