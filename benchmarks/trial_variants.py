@@ -50,6 +50,7 @@
 * base_looks: the defaults with up to 3 looks, when INSPECT ends, at its hypotheses' needed
   voxels outside the confined space (beside / in front of the base), then back the way the arm
   came (`GraspTrialConfig.looks`, `trial.grasp_looks`).
+* base_looks_wide: base_looks with 300 poses a look and up to 8 IK solutions of each kept.
 """
 from __future__ import annotations
 
@@ -367,3 +368,13 @@ def base_looks_config() -> TrialConfig:
 
 def base_looks(spec) -> tuple[dict, dict]:
     return _run(spec, base_looks_config())
+
+
+def base_looks_wide_config() -> TrialConfig:
+    """base_looks with 300 camera poses a look and every IK solution of each kept (up to 8)."""
+    g = GraspTrialConfig()
+    return TrialConfig(grasp=replace(g, looks=replace(g.looks, max_looks=3, n_poses=300, n_solutions=8)))
+
+
+def base_looks_wide(spec) -> tuple[dict, dict]:
+    return _run(spec, base_looks_wide_config())

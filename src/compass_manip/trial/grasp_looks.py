@@ -43,7 +43,8 @@ class BaseLookConfig:
     the interior box grown along `outward` / across that still counts as inside; n_poses camera
     poses a look, each at a needed voxel outside (drawn by weight) from a random eye point in
     `eye` ((lo, hi) [m] relative to the base, in its yaw frame), distance within `distance` [m],
-    random roll; n_q7 camera IK samples (up to 2 solutions a pose kept); min_fraction of the
+    random roll; n_q7 camera IK samples, up to n_solutions a pose kept (the nearest to the
+    current configuration first); min_fraction of the
     outside weight a look must see; n_goals best looks handed to the planner."""
 
     max_looks: int = 0
@@ -54,6 +55,7 @@ class BaseLookConfig:
     eye: tuple[tuple[float, float, float], tuple[float, float, float]] = ((0.25, -0.35, 0.55), (0.6, 0.35, 1.05))
     distance: tuple[float, float] = (0.25, 0.9)
     n_q7: int = 4
+    n_solutions: int = 2
     min_fraction: float = 0.05
     n_goals: int = 5
     planner: PlannerConfig = field(default_factory=lambda: PlannerConfig(max_checks=2 * DEFAULT_MAX_CHECKS))
@@ -66,7 +68,8 @@ class BaseLookConfig:
                                     "not allowed; use 0..1")
         if not 0.0 <= self.opening <= 0.5 or not 0.0 <= self.side <= 0.5:
             raise CompassInputError(f"opening {self.opening} / side {self.side} m not allowed; use 0..0.5 m")
-        if not 1 <= self.n_poses <= 2000 or not 1 <= self.n_goals <= 100 or not 1 <= self.n_q7 <= 64:
+        if not 1 <= self.n_poses <= 2000 or not 1 <= self.n_goals <= 100 or not 1 <= self.n_q7 <= 64 \
+                or not 1 <= self.n_solutions <= 64:
             raise CompassInputError(f"n_poses {self.n_poses} / n_goals {self.n_goals} / n_q7 {self.n_q7} not "
                                     "allowed; use 1..2000, 1..100 and 1..64")
         lo, hi = self.distance
@@ -206,7 +209,7 @@ class BaseLooks:
             return None
         pts, wo = vox[out], w[out]
         T = look_poses(pts, wo, self.base, float(self.task.robot_base_yaw), config, self.rng)
-        Q = np.array([s for Tc in T for s in ins.ik.solve(Tc, "cam", q, config.n_q7, retry=False).solutions[:2]])
+        Q = np.array([s for Tc in T for s in ins.ik.solve(Tc, "cam", q, config.n_q7, retry=False).solutions[:config.n_solutions]])
         Q = Q.reshape(-1, 7)
         ok = np.asarray(wm.checker.are_valid(Q), dtype=bool) if len(Q) else np.zeros(0, bool)
         rec.update(n_poses=len(T), n_ik=len(Q), n_valid=int(ok.sum()))
