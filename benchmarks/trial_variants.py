@@ -51,6 +51,8 @@
   voxels outside the confined space (beside / in front of the base), then back the way the arm
   came (`GraspTrialConfig.looks`, `trial.grasp_looks`).
 * base_looks_wide: base_looks with 300 poses a look and up to 8 IK solutions of each kept.
+* base_looks_far: base_looks_wide with eye points in a larger box around the base (x -0.1..0.7,
+  |y| <= 0.5, z 0.5..1.2 m), 0.25-1.2 m away.
 """
 from __future__ import annotations
 
@@ -378,3 +380,15 @@ def base_looks_wide_config() -> TrialConfig:
 
 def base_looks_wide(spec) -> tuple[dict, dict]:
     return _run(spec, base_looks_wide_config())
+
+
+def base_looks_far_config() -> TrialConfig:
+    """base_looks_wide with eye points anywhere within x -0.1..0.7, |y| <= 0.5, z 0.5..1.2 m of the
+    base, 0.25-1.2 m from the voxel looked at."""
+    g = GraspTrialConfig()
+    return TrialConfig(grasp=replace(g, looks=replace(g.looks, max_looks=3, n_poses=300, n_solutions=8,
+                                                      eye=((-0.1, -0.5, 0.5), (0.7, 0.5, 1.2)), distance=(0.25, 1.2))))
+
+
+def base_looks_far(spec) -> tuple[dict, dict]:
+    return _run(spec, base_looks_far_config())
