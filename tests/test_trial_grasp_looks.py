@@ -48,6 +48,8 @@ def test_look_poses_aim_at_the_weighted_voxels_from_eye_points_in_front_of_the_b
     assert len(look_poses(looks, np.zeros(3), base, 0.0, cfg, np.random.default_rng(0))) == 0
     with pytest.raises(CompassInputError, match="max_looks"):
         BaseLookConfig(max_looks=11)
+    with pytest.raises(CompassInputError, match="n_solutions"):
+        BaseLookConfig(n_solutions=0)
 
 
 def test_way_back_reverses_the_executed_paths_to_where_they_started():

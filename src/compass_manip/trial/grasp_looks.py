@@ -70,8 +70,9 @@ class BaseLookConfig:
             raise CompassInputError(f"opening {self.opening} / side {self.side} m not allowed; use 0..0.5 m")
         if not 1 <= self.n_poses <= 2000 or not 1 <= self.n_goals <= 100 or not 1 <= self.n_q7 <= 64 \
                 or not 1 <= self.n_solutions <= 64:
-            raise CompassInputError(f"n_poses {self.n_poses} / n_goals {self.n_goals} / n_q7 {self.n_q7} not "
-                                    "allowed; use 1..2000, 1..100 and 1..64")
+            raise CompassInputError(f"n_poses {self.n_poses} / n_goals {self.n_goals} / n_q7 {self.n_q7} / "
+                                    f"n_solutions {self.n_solutions} not allowed; use 1..2000, 1..100, 1..64 "
+                                    "and 1..64")
         lo, hi = self.distance
         if not 0.05 <= lo <= hi <= 2.0 or np.any(np.asarray(self.eye[0]) > np.asarray(self.eye[1])):
             raise CompassInputError(f"distance {self.distance} m / eye {self.eye} m not allowed; "
