@@ -53,6 +53,7 @@
 * base_looks_wide: base_looks with 300 poses a look and up to 8 IK solutions of each kept.
 * base_looks_far: base_looks_wide with eye points in a larger box around the base (x -0.1..0.7,
   |y| <= 0.5, z 0.5..1.2 m), 0.25-1.2 m away.
+* base_looks_way: base_looks_wide with the eye points where the camera has been (next to the way moved).
 """
 from __future__ import annotations
 
@@ -392,3 +393,14 @@ def base_looks_far_config() -> TrialConfig:
 
 def base_looks_far(spec) -> tuple[dict, dict]:
     return _run(spec, base_looks_far_config())
+
+
+def base_looks_way_config() -> TrialConfig:
+    """base_looks_wide with the eye points where the camera has been (next to the executed way)."""
+    g = GraspTrialConfig()
+    return TrialConfig(grasp=replace(g, looks=replace(g.looks, max_looks=3, n_poses=300, n_solutions=8,
+                                                      eye_from_way=True)))
+
+
+def base_looks_way(spec) -> tuple[dict, dict]:
+    return _run(spec, base_looks_way_config())

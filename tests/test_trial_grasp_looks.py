@@ -157,3 +157,13 @@ def test_looks_come_when_inspect_has_spent_its_calls():
     out = [looks(np.zeros(7), None) for _ in range(5)]
     assert len(calls) == 3 + 1 and looks.log == ["look"]  # 3 of INSPECT's, the look step, then INSPECT again
     assert out[3].planned is False and out[4].path is not None
+
+
+def test_look_poses_take_given_eye_points_when_asked():
+    eyes = np.array([[0.3, 0.0, 0.8], [0.4, 0.1, 0.9]])
+    looks = np.array([[0.1, 0.35, 0.5]])
+    T = look_poses(looks, np.ones(1), np.zeros(3), 0.0, BaseLookConfig(n_poses=50), np.random.default_rng(1), eyes)
+    d = np.linalg.norm(T[:, None, :3, 3] - eyes[None], axis=2).min(axis=1)
+    assert len(T) == 50 and np.all(d < 1e-9)  # every eye is one of the given points
+    assert np.allclose(np.einsum("ij,ij->i", T[:, :3, 2], (looks[0] - T[:, :3, 3])),
+                       np.linalg.norm(looks[0] - T[:, :3, 3], axis=1))  # looking straight at the voxel

@@ -45,7 +45,9 @@ class BaseLookConfig:
     `eye` ((lo, hi) [m] relative to the base, in its yaw frame), distance within `distance` [m],
     random roll; n_q7 camera IK samples, up to n_solutions a pose kept (the nearest to the
     current configuration first); min_fraction of the
-    outside weight a look must see; n_goals best looks handed to the planner."""
+    outside weight a look must see; n_goals best looks handed to the planner; eye_from_way: the
+    eye points are instead the cameras of configurations next to the way the arm moved
+    (INSPECT's `more_candidates`, `NearFieldScanner.near_way`), where the hand has been."""
 
     max_looks: int = 0
     min_outside: float = 0.5
@@ -58,6 +60,7 @@ class BaseLookConfig:
     n_solutions: int = 2
     min_fraction: float = 0.05
     n_goals: int = 5
+    eye_from_way: bool = False
     planner: PlannerConfig = field(default_factory=lambda: PlannerConfig(max_checks=2 * DEFAULT_MAX_CHECKS))
 
     def __post_init__(self) -> None:
@@ -93,7 +96,7 @@ def outside_space(points: np.ndarray, space, opening: float, side: float) -> np.
 
 
 def look_poses(looks: np.ndarray, weights: np.ndarray, base: np.ndarray, base_yaw: float, config: BaseLookConfig,
-               rng: np.random.Generator) -> np.ndarray:
+               rng: np.random.Generator, eyes: np.ndarray | None = None) -> np.ndarray:
     """(M,4,4) camera poses (M <= n_poses): each looks at one of `looks` (N,3) [m] drawn in
     proportion to `weights` (N,) from a uniform eye point of config.eye (relative to `base` (3,)
     [m], rotated by base_yaw [rad]); draws whose distance falls outside config.distance are
@@ -105,6 +108,9 @@ def look_poses(looks: np.ndarray, weights: np.ndarray, base: np.ndarray, base_ya
     c, s = np.cos(base_yaw), np.sin(base_yaw)
     R = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
     eye = np.asarray(base, float) + rng.uniform(config.eye[0], config.eye[1], (config.n_poses, 3)) @ R.T
+    if eyes is not None and len(eyes):  # given eye points (N,3) [m], drawn uniformly
+        eyes = np.asarray(eyes, dtype=np.float64).reshape(-1, 3)
+        eye = eyes[rng.integers(0, len(eyes), config.n_poses)]
     pick = looks[rng.choice(len(looks), config.n_poses, p=w / w.sum())]
     lo, hi = config.distance
     out = []
@@ -209,7 +215,10 @@ class BaseLooks:
             self.stopped = f"outside share {share:.2f} < {config.min_outside}"
             return None
         pts, wo = vox[out], w[out]
-        T = look_poses(pts, wo, self.base, float(self.task.robot_base_yaw), config, self.rng)
+        eyes = None
+        if config.eye_from_way and getattr(ins, "more_candidates", None) is not None:
+            eyes = wm.kin.T_world_cam_batch(np.asarray(ins.more_candidates(q)).reshape(-1, 7))[:, :3, 3]
+        T = look_poses(pts, wo, self.base, float(self.task.robot_base_yaw), config, self.rng, eyes)
         Q = np.array([s for Tc in T for s in ins.ik.solve(Tc, "cam", q, config.n_q7, retry=False).solutions[:config.n_solutions]])
         Q = Q.reshape(-1, 7)
         ok = np.asarray(wm.checker.are_valid(Q), dtype=bool) if len(Q) else np.zeros(0, bool)
