@@ -86,8 +86,12 @@ def capture(method: str, level: int, index: int, seed: int, config: TrialConfig)
     if scanners:
         s = scanners[0]
         box["scan"] = {"views": s.views, "stopped": s.stopped, "gains": list(s.gains)}
-        if s.then is not None and hasattr(s.then, "last"):
-            box["inspect_last"] = {k: v for k, v in s.then.last.items() if k != "optimistic_rejections"}
+        ins = getattr(s.then, "inspector", s.then)  # trial.grasp_looks.BaseLooks wraps INSPECT
+        if ins is not None and hasattr(ins, "last"):
+            box["inspect_last"] = {k: v for k, v in ins.last.items() if k != "optimistic_rejections"}
+        if hasattr(s.then, "log"):
+            box["looks"] = {"looks": s.then.looks, "returned": s.then.returned, "stopped": s.then.stopped,
+                            "inner_calls": s.then.inner_calls, "log": s.then.log}
     return box
 
 
@@ -223,7 +227,7 @@ def main() -> int:
             rec.update(select_failure=None if sel.failure is None else sel.failure.name,
                        rejections={k.name: v for k, v in sel.rejections.items() if v},
                        score=None if sel.failure is not None else round(float(sel.score), 2),
-                       scan=box.get("scan"), inspect_last=box.get("inspect_last"))
+                       scan=box.get("scan"), inspect_last=box.get("inspect_last"), looks=box.get("looks"))
             counts, hv, av = blockers(box, scene, rest, tgt)
             box["hand_vox"], box["arm_vox"] = hv, av
             rec.update(counts, hand_voxels=split(hv, box, scene, rest), arm_voxels=split(av, box, scene, rest),

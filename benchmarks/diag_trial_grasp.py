@@ -18,7 +18,19 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 import trial_variants  # noqa: E402
 
 from compass_manip.trial.config import TrialConfig  # noqa: E402
+from compass_manip.trial import runner  # noqa: E402
 from compass_manip.trial.runner import TrialSpec, run_trial_full  # noqa: E402
+
+_LOOKS: list = []
+
+
+class _KeptLooks(runner.BaseLooks):  # kept to print what the looks outside the cabinet did
+    def __init__(self, *a, **k):
+        super().__init__(*a, **k)
+        _LOOKS.append(self)
+
+
+runner.BaseLooks = _KeptLooks
 
 
 def main() -> int:
@@ -33,6 +45,7 @@ def main() -> int:
     for level in args.levels:
         for scene in args.scenes:
             t0 = time.perf_counter()
+            _LOOKS.clear()
             run = run_trial_full(TrialSpec(args.method, level, scene, 0, args.seed), config)
             r, g = run.result, run.outcome.grasp
             sel = None if g is None else g.selection
@@ -46,6 +59,8 @@ def main() -> int:
                 "select_s": None if sel is None else round(sel.time_s, 2),
                 "exec": None if out is None else [f"{c.phase}:{c.robot_geom}->{c.other_geom}" for c in out.collisions]
                 + [None if out.failure is None else out.failure.name],
+                "looks": [{"looks": b.looks, "returned": b.returned, "stopped": b.stopped,
+                           "inner_calls": b.inner_calls, "log": b.log} for b in _LOOKS],
                 "wall_s": round(time.perf_counter() - t0, 1)}), flush=True)
     return 0
 

@@ -57,6 +57,13 @@
 * inspect_long: INSPECT goes on while a view sees 0.5 % of the hypotheses' weight (2 % by default).
 * inspect_near: INSPECT aims first at the needed voxels within 20 cm of the detection's points' box
   (`InspectConfig.near_first`).
+* base_looks: the defaults with up to 3 looks, when INSPECT ends, at its hypotheses' needed
+  voxels outside the confined space (beside / in front of the base), then back the way the arm
+  came (`GraspTrialConfig.looks`, `trial.grasp_looks`).
+* base_looks_wide: base_looks with 300 poses a look and up to 8 IK solutions of each kept.
+* base_looks_far: base_looks_wide with eye points in a larger box around the base (x -0.1..0.7,
+  |y| <= 0.5, z 0.5..1.2 m), 0.25-1.2 m away.
+* base_looks_way: base_looks_wide with the eye points where the camera has been (next to the way moved).
 """
 from __future__ import annotations
 
@@ -445,3 +452,47 @@ def insp_before_config() -> TrialConfig:
 
 def insp_before(spec) -> tuple[dict, dict]:
     return _run(spec, insp_before_config())
+
+
+def base_looks_config() -> TrialConfig:
+    """The defaults with up to 3 looks at INSPECT's hypotheses' needed voxels outside the confined
+    space when INSPECT ends, then back the way the arm came (`GraspTrialConfig.looks`)."""
+    g = GraspTrialConfig()
+    return TrialConfig(grasp=replace(g, looks=replace(g.looks, max_looks=3)))
+
+
+def base_looks(spec) -> tuple[dict, dict]:
+    return _run(spec, base_looks_config())
+
+
+def base_looks_wide_config() -> TrialConfig:
+    """base_looks with 300 camera poses a look and every IK solution of each kept (up to 8)."""
+    g = GraspTrialConfig()
+    return TrialConfig(grasp=replace(g, looks=replace(g.looks, max_looks=3, n_poses=300, n_solutions=8)))
+
+
+def base_looks_wide(spec) -> tuple[dict, dict]:
+    return _run(spec, base_looks_wide_config())
+
+
+def base_looks_far_config() -> TrialConfig:
+    """base_looks_wide with eye points anywhere within x -0.1..0.7, |y| <= 0.5, z 0.5..1.2 m of the
+    base, 0.25-1.2 m from the voxel looked at."""
+    g = GraspTrialConfig()
+    return TrialConfig(grasp=replace(g, looks=replace(g.looks, max_looks=3, n_poses=300, n_solutions=8,
+                                                      eye=((-0.1, -0.5, 0.5), (0.7, 0.5, 1.2)), distance=(0.25, 1.2))))
+
+
+def base_looks_far(spec) -> tuple[dict, dict]:
+    return _run(spec, base_looks_far_config())
+
+
+def base_looks_way_config() -> TrialConfig:
+    """base_looks_wide with the eye points where the camera has been (next to the executed way)."""
+    g = GraspTrialConfig()
+    return TrialConfig(grasp=replace(g, looks=replace(g.looks, max_looks=3, n_poses=300, n_solutions=8,
+                                                      eye_from_way=True)))
+
+
+def base_looks_way(spec) -> tuple[dict, dict]:
+    return _run(spec, base_looks_way_config())

@@ -16,6 +16,7 @@ from ..perception.detector import DETECTORS, DetectorConfig
 from ..sim.grasp_exec import GraspExecConfig
 from ..sim.advance import AdvanceConfig
 from ..sim.keyframes import KeyframeRule
+from .grasp_looks import BaseLookConfig
 from .grasp_scan import TrialScanConfig
 from .inspect import InspectConfig
 from .verify import VerifyConfig
@@ -131,7 +132,10 @@ class GraspTrialConfig:
     world model's swept space: the executed way grown by its swept_margin, the start posture's
     shell outside the confined space) is the robot's own for GRASP too, as INSPECT counts its
     hypotheses' voxels and the method itself moves (before, GRASP took only the way grown by
-    moved_margin, so INSPECT stopped on hypotheses the selection then refused)."""
+    moved_margin, so INSPECT stopped on hypotheses the selection then refused). looks: when INSPECT
+    ends, up to `looks.max_looks` looks at its hypotheses' needed voxels outside the confined
+    space (beside and in front of the base), then back the way the arm came
+    (`trial.grasp_looks.BaseLookConfig`; 0 looks: off)."""
 
     enabled: bool = True
     target: TargetConfig = field(default_factory=TargetConfig)
@@ -152,6 +156,7 @@ class GraspTrialConfig:
     near_body_yaw: float = 0.6
     verify: VerifyConfig | None = None
     method_swept: bool = True
+    looks: BaseLookConfig = field(default_factory=BaseLookConfig)
 
     def __post_init__(self) -> None:
         if not 0.02 <= self.fine_margin <= 0.5:

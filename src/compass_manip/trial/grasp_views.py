@@ -160,6 +160,7 @@ class GraspInspector:
         self.more_candidates = more_candidates
         self.strict_safe = strict_safe
         self.last: dict = {}  # what the last step saw (hypotheses, needed voxels, views), for diagnosis
+        self.last_hypotheses: list = []  # the last step's hypotheses
         self.stats: dict = {}
         self.pinned = GraspCandidates.empty()  # every hypothesis found so far (`pin`), newest first
         self.ik_sweeps = IKSweeps()  # IK solved at any step, kept for the next ones and the GRASP stage
@@ -212,6 +213,7 @@ class GraspInspector:
         q = np.asarray(q_current, dtype=np.float64)
         occ = wm.occ
         hyps, needed = self.needs(q, detection)
+        self.last_hypotheses = hyps  # for `trial.grasp_looks.BaseLooks`, which recounts their voxels
         counts = [len(n) for n in needed]
         self.last = {"n_hypotheses": len(hyps), "needed": counts, "optimistic_rejections": dict(self.stats)}
         if not hyps or min(counts) <= config.done_unknown:

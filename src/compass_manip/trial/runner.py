@@ -26,6 +26,7 @@ from ..sim.world import World
 from .config import GRASP_ABLATION_METHOD, ORACLE_DETECTOR, TrialConfig
 from .grasp_stage import assumed_unknown_free, run_grasp_stage
 from .grasp_map import GraspMap, GraspWorld
+from .grasp_looks import BaseLooks
 from .grasp_scan import NearFieldScanner, survey_checker
 from .grasp_views import GraspInspector
 from .inspect import plan_inspect_view
@@ -149,11 +150,26 @@ def run_trial_full(spec: TrialSpec, config: TrialConfig | None = None, progress=
         if isinstance(inspect.then, GraspInspector):  # INSPECT scores the way's neighbours too
             inspect.then.more_candidates = inspect.near_way
         n_inspect += config.grasp.scan.max_views
+    if config.grasp.looks.max_looks > 0 and own is not None:  # looks outside the cabinet when INSPECT ends
+        scanner = inspect if isinstance(inspect, NearFieldScanner) else None
+        inner = scanner.then if scanner is not None else inspect
+        if isinstance(inner, GraspInspector):
+            looks_rng = np.random.default_rng(np.random.SeedSequence((spec.seed, spec.level, spec.scene, spec.trial,
+                                                                      15)))
+            n0 = n_inspect  # INSPECT keeps every call it had; the looks, the way back and one more call on top
+            looks = BaseLooks(inner, task, config.grasp.looks, looks_rng,
+                              inner_budget=lambda: n0 - (scanner.views if scanner is not None else 0))
+            if scanner is not None:
+                scanner.then = looks
+            else:
+                inspect = looks
+            n_inspect += config.grasp.looks.max_looks + 2
     if config.grasp.enabled:
         grasp_rng = np.random.default_rng(np.random.SeedSequence((spec.seed, spec.level, spec.scene, spec.trial, 11)))
         charge = None if config.clock.measured else config.clock.planning_charge_s
 
         inspector = inspect.then if isinstance(inspect, NearFieldScanner) else inspect
+        inspector = inspector.inspector if isinstance(inspector, BaseLooks) else inspector
 
         looker = None
         if config.grasp.verify is not None and own is not None:  # look before moving (trial.verify)
