@@ -39,7 +39,8 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from capture_select_inputs import capture_arguments, read_captures
-from compass_manip.grasp.candidates import AntipodalProposer, GraspCandidates, PinnedProposer, depth_keep
+from compass_manip.grasp.candidates import AntipodalProposer, GraspCandidates, PinnedProposer
+from compass_manip.grasp.hand_volume import depth_keep
 from compass_manip.grasp.quality import graspnet_score, graspnet_score_cones, required_mu
 from compass_manip.grasp.select import GraspSelectConfig, select_grasp
 from compass_manip.grasp.target import normal_cones
@@ -219,7 +220,7 @@ def current_inputs(box: dict, cand_set: dict | None = None):
     hypotheses (INSPECT's, made by the proposer of that day) in front of a fresh
     `AntipodalProposer`; each pinned candidate's contacts are looked up among the model's
     points and re-scored with their edge cones when the config scores with them, and dropped
-    at s = 0 or where the depth rules (`candidates.depth_keep`, each hand alone, at the depth
+    at s = 0 or where the depth rules (`hand_volume.depth_keep`, each hand alone, at the depth
     INSPECT chose) drop it."""
     config = GraspSelectConfig()
     config = replace(config, candidates=replace(config.candidates, **(cand_set or {})))

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from compass_manip.errors import CompassInputError
-from compass_manip.grasp.candidates import (DEEP_EDGE, PAD_BACK, PAD_TIP, CandidateConfig, antipodal_candidates,
-                                            depth_keep, pad_section)
+from compass_manip.grasp.candidates import DEEP_EDGE, CandidateConfig, antipodal_candidates
+from compass_manip.grasp.hand_volume import PAD_BACK, PAD_TIP, depth_keep, pad_section
 from compass_manip.grasp.quality import graspnet_score, graspnet_score_cones, required_mu_cones
 from compass_manip.grasp.target import TargetModel, normal_cones, pca_normals, principal_axes, thin
 from compass_manip.robot.model import GRIPPER_MAX_WIDTH
