@@ -1,6 +1,6 @@
 """Diagnosis (GROUND TRUTH, read here only): which frames of a find-only trial saw what.
 
-Runs one find-only COMPASS trial with the detection buffer replaced by a recording one and
+Runs one find-only trial (COMPASS unless --method names another) with the detection buffer replaced by a recording one and
 prints, per processed frame with a region of the query's colour: the frame's time [s], the
 camera position [m], and per region its verdict, shape as seen, extents [cm], completeness,
 pixel count, box, centroid [m] and the scene object most of its points lie in (ground truth:
@@ -63,14 +63,19 @@ def main() -> None:
     ap.add_argument("--scene", type=int, default=8)
     ap.add_argument("--seed", type=int, default=3131)
     ap.add_argument("--variant", choices=("default", "old", "strict"), default="default")
+    ap.add_argument("--method", default="compass", help="exploration method (registry name)")
+    ap.add_argument("--hue-check", choices=("default", "on", "off"), default="default",
+                    help="the detector's hue check (DetectorConfig.hue_check)")
     args = ap.parse_args()
     config = trial_variants.find_only_config()
     if args.variant == "old":
         config = trial_variants.find_only_old_config()
     elif args.variant == "strict":
         config = replace(config, detector=replace(config.detector, min_completeness=0.99))
+    if args.hue_check != "default":
+        config = replace(config, detector=replace(config.detector, hue_check=args.hue_check == "on"))
     runner.DetectionBuffer = RecordingBuffer
-    run = run_trial_full(TrialSpec("compass", args.level, args.scene, 0, args.seed), config)
+    run = run_trial_full(TrialSpec(args.method, args.level, args.scene, 0, args.seed), config)
     scene = run.scene
     q = scene.task().target
     print(f"query: {q.colour} {q.shape} {np.round(100 * np.asarray(q.size), 1)} cm; target at "
@@ -84,7 +89,8 @@ def main() -> None:
             ext = " x ".join(f"{100 * e:.1f}" for e in d.extents)
             tag = "CONFIRMED " if d.verdict.value == "accepted" and d.score < 0.6 else ""
             print(f"    {tag}{d.verdict.value:12s} {d.shape:7s} {ext:18s} c {d.score:.2f} px {d.n_pixels:5d} "
-                  f"bbox {d.bbox} at {np.round(d.centroid_world, 3)} -> {owner(scene, d)}")
+                  f"bbox {d.bbox} at {np.round(d.centroid_world, 3)} -> {owner(scene, d)}"
+                  + ("" if d.cut is None else f" cut o/op/c {d.cut.occluded:.2f}/{d.cut.open:.2f}/{d.cut.continued:.2f}"))
     for buf in RecordingBuffer.instances:
         for c in buf.confirmer.candidates:
             print(f"candidate from t {c.t:.2f}: {c.n_frames} frames, cameras {len(c.cameras)} spanning "

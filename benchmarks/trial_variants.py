@@ -25,6 +25,7 @@
   assumption took as free (`VerifyConfig(assumed_only=True, refuse=False)`, branch e2e4).
 * grasp_look_outward: as grasp_look_assumed, a third of the look directions away from the base.
 * find_only: no GRASP state (the trial ends at FOUND), as `compass run --find-only`.
+* find_only_hue: find_only with the detector's hue check on (`DetectorConfig.hue_check`).
 * find_only_old: find_only with a match accepted from one frame however little of it shows
   (`DetectorConfig.confirm_completeness=None`, the rule until 2026-11-24's third session; the
   default since then holds a match showing < 60 % of the query TENTATIVE until a second camera
@@ -149,6 +150,15 @@ def find_only_config() -> TrialConfig:
 
 def find_only(spec) -> tuple[dict, dict]:
     return _run(spec, find_only_config())
+
+
+def find_only_hue_config() -> TrialConfig:
+    """find_only with the detector's hue check on (`DetectorConfig.hue_check`)."""
+    return TrialConfig(detector=DetectorConfig(hue_check=True), grasp=GraspTrialConfig(enabled=False))
+
+
+def find_only_hue(spec) -> tuple[dict, dict]:
+    return _run(spec, find_only_hue_config())
 
 
 def find_only_old_config() -> TrialConfig:

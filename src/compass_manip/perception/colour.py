@@ -50,7 +50,39 @@ def colour_direction_mask(rgb: np.ndarray, colour: str, config) -> np.ndarray:
     nearest = cos.argmax(axis=-1)
     same = (nearest == k) | ((colour in _ACHROMATIC) & np.isin(nearest, [names.index(c) for c in _ACHROMATIC]))
     ang_ok = cos[..., k] >= math.cos(math.radians(config.colour_max_angle_deg))
-    return same & ang_ok & (val >= config.min_value)
+    ok = same & ang_ok & (val >= config.min_value)
+    if config.hue_check and colour in _HUE_RIVALS:
+        ok &= nearest_hue(x) == _HUE_NAMES.index(colour)
+    return ok
+
+
+#: the chromatic colours of `task.COLOURS` told apart by hue as well (brown shares orange's
+#: hue and differs in brightness and saturation; white and grey have none)
+_HUE_NAMES = tuple(c for c in COLOURS if c not in _ACHROMATIC + ("brown",))
+_HUE_RIVALS = frozenset(_HUE_NAMES)
+
+
+def hue_deg(x: np.ndarray) -> np.ndarray:
+    """Hue [deg, 0..360) of RGB values (..., 3) in [0, 1] (the HSV hexagon's angle). It
+    depends only on the differences between the channels and their ratios, so it keeps
+    under shading (scaling) and under a white highlight (adding the same to every channel),
+    where the RGB direction turns towards white."""
+    x = np.asarray(x, dtype=np.float32)[..., :3]
+    r, g, b = x[..., 0], x[..., 1], x[..., 2]
+    mx, mn = x.max(axis=-1), x.min(axis=-1)
+    c = np.maximum(mx - mn, 1e-9)
+    h = np.where(mx == r, ((g - b) / c) % 6.0, np.where(mx == g, (b - r) / c + 2.0, (r - g) / c + 4.0))
+    return (60.0 * h) % 360.0
+
+
+_HUE_REFS = hue_deg(np.array([COLOURS[c] for c in _HUE_NAMES], dtype=np.float32))
+
+
+def nearest_hue(x: np.ndarray) -> np.ndarray:
+    """Index into `_HUE_NAMES` of the reference hue nearest (around the circle) to each
+    pixel's (x: (..., 3) RGB in [0, 1])."""
+    d = np.abs(hue_deg(x)[..., None] - _HUE_REFS)
+    return np.minimum(d, 360.0 - d).argmin(axis=-1)
 
 
 def _blue_ratio(rgb) -> np.ndarray:

@@ -89,7 +89,14 @@ class DetectorConfig:
     patch of a larger surface (`Detection.patch`): a TENTATIVE one is PARTIAL instead (a point
     of interest, never accepted), a WRONG_SHAPE one supports no confirmation (None: off, the
     rule until 2026-11-24's fourth session; the book's slice above has 41-52 % of its outline
-    on the book's side, and no region of a target in 35 find-only trials more than 0 %)."""
+    on the book's side, and no region of a target in 35 find-only trials more than 0 %);
+    hue_check: a pixel of a chromatic query colour must also have its hue nearest that
+    colour's among the palette's chromatic colours (`colour.nearest_hue`; brown, white and grey
+    are not in that contest). A white highlight turns the RGB direction towards white, not
+    the hue: on the default set's level 1 scene 11 (FV) the lit top of an orange cereal box,
+    mean RGB (230, 165, 63), 6.2 deg from yellow's direction and 12.6 deg from orange's, was
+    accepted as the yellow box queried; its hue is 36.7 deg, orange's 30, yellow's 50.8 (False:
+    the direction test alone, the rule until 2026-11-24's fifth session)."""
 
     colour_max_angle_deg: float = 10.0
     min_value: float = 0.12
@@ -109,6 +116,7 @@ class DetectorConfig:
     max_points: int = 3000
     confirm_completeness: float | None = 0.6
     max_continued: float | None = 0.3
+    hue_check: bool = True
 
     def __post_init__(self) -> None:
         if not 0 < self.colour_max_angle_deg < 45:
@@ -127,6 +135,8 @@ class DetectorConfig:
             raise CompassInputError(f"max_continued {m!r} is not allowed; use a share in (0, 1] or None")
         if self.min_pixels < 1:
             raise CompassInputError(f"min_pixels {self.min_pixels} must be >= 1")
+        if not isinstance(self.hue_check, bool):
+            raise CompassInputError(f"hue_check {self.hue_check!r} is not allowed; use True or False")
 
 
 @dataclass(frozen=True, eq=False)
