@@ -66,6 +66,19 @@ def ground_truth_checker(scene: SceneSpec, finger_width: float = GRIPPER_MAX_WID
                            ValidityConfig(margin=margin))
 
 
+def obstacle_checker(scene: SceneSpec, margin: float = 0.0, finger_width: float = GRIPPER_MAX_WIDTH) -> ValidityChecker:
+    """The sphere-model checker of `ground_truth_checker` on the scene's base obstacles alone
+    (no floor, no self-collision test): a configuration or straight segment is valid for
+    `ground_truth_checker(scene, margin=m)` iff it is valid for
+    `ground_truth_checker(scene, base_obstacles=False, margin=m)` and for this one (the
+    verdict is an AND over the primitives; `layout_grasps` shares the first part among the
+    obstacle draws of a layout)."""
+    robot = RobotConfig(base_pos=scene.robot_base_pos, base_yaw=scene.robot_base_yaw)
+    spheres = panda_sphere_model(robot, finger_width)
+    return ValidityChecker(spheres, None, PrimitiveSet.from_shapes(list(scene.base_obstacles)),
+                           ValidityConfig(margin=margin, check_self=False))
+
+
 @lru_cache(maxsize=4)
 def robot_ik(robot: RobotConfig) -> PandaIK:
     """A cached IK solver of the robot (base pose, camera)."""
