@@ -55,6 +55,7 @@ class LayoutGrasps:
         self._sols: dict[bytes, np.ndarray] = {}
         self._chain: dict[tuple[bytes, int], tuple | None] = {}
         self._first: dict[bytes, int] = {}
+        self._mask: dict[bytes, np.ndarray] = {}
 
     def solutions(self, T: np.ndarray) -> np.ndarray:
         key = T.tobytes()
@@ -67,9 +68,18 @@ class LayoutGrasps:
         obstacles, else None: `oracle.first_valid_grasp` on that one solution."""
         key = (T.tobytes(), int(i))
         if key not in self._chain:
-            self._chain[key] = oracle.first_valid_grasp(self.ik, T, self.solutions(T)[i:i + 1], self.full,
-                                                        self.no_target)
+            sols = self.solutions(T)
+            self._chain[key] = (oracle.grasp_chain(self.ik, T, sols[i], self.full, self.no_target)
+                                if self._free(T)[i] else None)
         return self._chain[key]
+
+    def _free(self, T: np.ndarray) -> np.ndarray:
+        """(k,) whether each solution of T is valid for the layout without the target (one batch)."""
+        key = T.tobytes()
+        if key not in self._mask:
+            sols = self.solutions(T)
+            self._mask[key] = self.no_target.are_valid(sols) if len(sols) else np.zeros(0, bool)
+        return self._mask[key]
 
     def first_valid(self, T: np.ndarray) -> int:
         """Index of the first solution of T whose chain is valid without obstacles (-1: none)."""

@@ -212,21 +212,30 @@ def first_valid_grasp(ik: PandaIK, T_world_tcp: np.ndarray, sols: np.ndarray, fu
     free of ground-truth (MuJoCo) contacts with the fingers open."""
     if len(sols) == 0:
         return None
+    for q in sols[no_target.are_valid(sols)]:
+        if world is not None and world.in_collision(q, GRIPPER_MAX_WIDTH, include_self=True):
+            continue
+        found = grasp_chain(ik, T_world_tcp, q, full, no_target)
+        if found is not None:
+            return found
+    return None
+
+
+def grasp_chain(ik: PandaIK, T_world_tcp: np.ndarray, q: np.ndarray, full: ValidityChecker,
+                no_target: ValidityChecker):
+    """`first_valid_grasp`'s test of one IK solution q (already valid for no_target):
+    (q, q_pregrasp, q_lift) when its pre-grasp, lift and the straight segments are valid, or None."""
     a = T_world_tcp[:3, 2]
     T_pre, T_lift = T_world_tcp.copy(), T_world_tcp.copy()
     T_pre[:3, 3] -= PREGRASP_BACK * a
     T_lift[2, 3] += LIFT_HEIGHT
-    for q in sols[no_target.are_valid(sols)]:
-        if world is not None and world.in_collision(q, GRIPPER_MAX_WIDTH, include_self=True):
-            continue
-        pre = _near(ik, T_pre, q)
-        if pre is None or not full.is_valid(pre) or not no_target.edge_valid(pre, q):
-            continue
-        lift = _near(ik, T_lift, q)
-        if lift is None or not no_target.is_valid(lift) or not no_target.edge_valid(q, lift):
-            continue
-        return q, pre, lift
-    return None
+    pre = _near(ik, T_pre, q)
+    if pre is None or not full.is_valid(pre) or not no_target.edge_valid(pre, q):
+        return None
+    lift = _near(ik, T_lift, q)
+    if lift is None or not no_target.is_valid(lift) or not no_target.edge_valid(q, lift):
+        return None
+    return q, pre, lift
 
 
 def find_grasp(world: World, q_ref: np.ndarray | None = None, max_candidates: int | None = None) -> GroundTruthGrasp | None:
