@@ -89,6 +89,40 @@ def test_visibility_from_a_pose_and_from_the_wrist_agree(world4):
         world4.target_visibility(Q_HOME), abs=1e-9)
 
 
+def _visibility_casting_every_box_pixel(world, T, stride, with_robot):
+    """`World.visibility_from` as it was before it cast the scene only along the rays that
+    reach the target alone: both casts over every pixel of the target's box."""
+    from compass_manip.sim.world import _RAY_GROUPS, _SCENE_GROUPS, _TARGET_ONLY
+    px = world._target_pixels(T, stride)
+    if px is None:
+        return 0.0
+    dirs = world._pixel_dirs_cam().reshape(world.camera.height, world.camera.width, 3)[px[1], px[0]] @ T[:3, :3].T
+    dist_all, gid_all = world.cast_rays(T[:3, 3], dirs, _RAY_GROUPS if with_robot else _SCENE_GROUPS)
+    dist_t, gid_t = world.cast_rays(T[:3, 3], dirs, _TARGET_ONLY)
+    in_range = (dist_t > world.camera.depth_min) & (dist_t <= world.camera.depth_max)
+    alone = np.count_nonzero((gid_t >= 0) & in_range)
+    if alone == 0:
+        return 0.0
+    hit_t = np.zeros(len(gid_all), bool)
+    hit_t[gid_all >= 0] = world.is_target_geom[gid_all[gid_all >= 0]]
+    return np.count_nonzero(hit_t & in_range) / alone
+
+
+def test_visibility_casts_the_scene_only_where_the_target_is_and_gives_the_same_fraction(world4):
+    from compass_manip.sim.view_search import inside_view_poses, sample_view_poses
+    scene = world4.scene
+    rng = np.random.default_rng(11)
+    poses = sample_view_poses(scene, 30, rng) + inside_view_poses(scene, 10, rng)
+    world4.set_q(Q_HOME)
+    got, want = [], []
+    for k, T in enumerate(poses):
+        stride, robot = (1, 3)[k % 2], k % 3 == 0
+        got.append(world4.visibility_from(T, stride=stride, with_robot=robot))
+        want.append(_visibility_casting_every_box_pixel(world4, T, stride, robot))
+    assert got == want  # exactly
+    assert any(0.0 < v < 1.0 for v in want) and any(v == 0.0 for v in want)
+
+
 def test_frame_contents(world4):
     f = world4.render(Q_HOME, t=1.5, seg=True)
     H, W = world4.camera.height, world4.camera.width

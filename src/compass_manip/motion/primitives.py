@@ -132,11 +132,8 @@ class PrimitiveSet:
 
     def distance(self, points: np.ndarray) -> np.ndarray:
         """Signed distance [m] of each world point (N,3) to the nearest primitive (inf if none)."""
-        P = np.ascontiguousarray(points_array(points, "points"))
-        out = np.empty(P.shape[0])
-        for i in range(P.shape[0]):
-            out[i] = primitives_distance(P[i], self.arrays(), -np.inf)
-        return out
+        P = np.ascontiguousarray(points_array(points, "points"), dtype=np.float64)
+        return _distances_kernel(P, self.arrays())
 
 
 @nb.njit(cache=True, inline="always")
@@ -190,6 +187,17 @@ def primitives_distance(p, prims, stop_below):
         if best < stop_below:
             return best
     return best
+
+
+@nb.njit(cache=True)
+def _distances_kernel(P, prims):
+    """`primitives_distance` of each point of P (N,3) with no early stop, in one compiled loop
+    (the same arithmetic per point as calling it point by point from Python, ~100 x faster:
+    the aiming of level 4's obstacles measures thousands of sphere centres per draw)."""
+    out = np.empty(P.shape[0])
+    for i in range(P.shape[0]):
+        out[i] = primitives_distance(P[i], prims, -np.inf)
+    return out
 
 
 @dataclass(frozen=True, eq=False)

@@ -26,6 +26,7 @@ from ..robot.model import GRIPPER_MAX_WIDTH
 from ..robot.spheres import panda_sphere_model
 from . import oracle
 from .home_clearance import required_clearances
+from .layout_grasps import layout_grasps
 from .levels import draw_base_obstacles, generate_scene
 from .scenes import SceneSpec
 from .view_search import inside_view_poses, sample_view_poses
@@ -61,12 +62,10 @@ def arm_samples(layout: SceneSpec, rng: np.random.Generator, n_view_poses: int =
         ik = oracle.robot_ik(world.robot)
         home = np.asarray(world.robot.q_home)
         sm = panda_sphere_model(world.robot, GRIPPER_MAX_WIDTH)
-        full = oracle.ground_truth_checker(scene, margin=margin + grasp_margin)
-        no_target = oracle.ground_truth_checker(scene, exclude_target=True, margin=margin + grasp_margin)
+        chains = layout_grasps(scene, ik, home, n_q7_grasp, margin + grasp_margin)  # shared with `certify`
         grasps = []
         for T, _ in oracle.dense_neck_candidates(scene):
-            sols = oracle.grasp_solutions(ik, T, home, n_q7_grasp)
-            triples = [g for q in sols if (g := oracle.first_valid_grasp(ik, T, q[None], full, no_target)) is not None]
+            triples = [g for i in range(len(chains.solutions(T))) if (g := chains.chain(T, i)) is not None]
             if triples:
                 grasps.append(np.stack([sm.sphere_centers(np.stack(g)) for g in triples]))
         views_free = oracle.ground_truth_checker(scene, margin=margin)

@@ -51,6 +51,7 @@ from .physics import grasp_and_lift
 from . import outside_views, scene_cache
 from .aimed_obstacles import AIMED_LEVELS, aim, layout_samples
 from .home_clearance import home_clearance
+from .layout_grasps import layout_grasps
 from .scenes import SceneSpec
 from .view_search import best_exact_visibility, sample_view_poses, search_views  # noqa: F401
 from .world import World
@@ -394,29 +395,38 @@ def _grasps(world: World, config: CertifyConfig, ik, obstacles: bool, margin: fl
     """Valid ground-truth grasps (at most 4 kept unless counting), checked with the sphere
     model grown by margin [m], and, with base obstacles, the number of candidates valid with
     and without them (all candidates are then evaluated; at the dense_grasp_levels the dense
-    neck family too)."""
+    neck family too). With base obstacles the layout's part of the work is shared among its
+    obstacle draws (`layout_grasps`: the same answers as checking each draw in full)."""
     scene = world.scene
     home = np.asarray(world.robot.q_home)
     found: list[GroundTruthGrasp] = []
     n_with = n_without = 0
-    full = oracle.ground_truth_checker(scene, margin=margin)
-    no_target = oracle.ground_truth_checker(scene, exclude_target=True, margin=margin)
-    if obstacles:
-        full_wo = oracle.ground_truth_checker(scene, base_obstacles=False, margin=margin)
-        nt_wo = oracle.ground_truth_checker(scene, exclude_target=True, base_obstacles=False, margin=margin)
     candidates = oracle.grasp_candidates(scene)[:config.max_grasp_candidates]
-    if obstacles and scene.level in config.dense_grasp_levels:
+    if not obstacles:
+        full = oracle.ground_truth_checker(scene, margin=margin)
+        no_target = oracle.ground_truth_checker(scene, exclude_target=True, margin=margin)
+        for T, deg in candidates:
+            sols = oracle.grasp_solutions(ik, T, home, config.n_q7_grasp)
+            g = oracle.first_valid_grasp(ik, T, sols, full, no_target, world)
+            if g is not None:
+                found.append(GroundTruthGrasp(T, deg, *g))
+                if len(found) >= 4:
+                    break
+        return found, n_with, n_without
+    if scene.level in config.dense_grasp_levels:
         candidates += oracle.dense_neck_candidates(scene)
-    for T, deg in candidates:
-        sols = oracle.grasp_solutions(ik, T, home, config.n_q7_grasp)
-        g = oracle.first_valid_grasp(ik, T, sols, full, no_target, world)
+    shared = layout_grasps(scene, ik, home, config.n_q7_grasp, margin)
+    obs = oracle.obstacle_checker(scene, margin)
+    for T, deg in candidates:  # valid with obstacles (and in MuJoCo) only if valid without them
+        if shared.first_valid_with(T, None) is None:
+            continue
+        n_without += 1
+        if shared.first_valid_with(T, obs) is None:
+            continue
+        n_with += 1
+        g = shared.first_valid_with(T, obs, world)
         if g is not None:
-            found.append(GroundTruthGrasp(T, deg, *g))
-        if obstacles:  # counted with the sphere model alone, with and without the base obstacles
-            n_with += oracle.first_valid_grasp(ik, T, sols, full, no_target) is not None
-            n_without += oracle.first_valid_grasp(ik, T, sols, full_wo, nt_wo) is not None
-        elif len(found) >= 4:
-            break
+            found.append(GroundTruthGrasp(T, deg, *(np.array(a, copy=True) for a in g)))
     return found, n_with, n_without
 
 

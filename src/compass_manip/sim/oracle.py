@@ -66,6 +66,19 @@ def ground_truth_checker(scene: SceneSpec, finger_width: float = GRIPPER_MAX_WID
                            ValidityConfig(margin=margin))
 
 
+def obstacle_checker(scene: SceneSpec, margin: float = 0.0, finger_width: float = GRIPPER_MAX_WIDTH) -> ValidityChecker:
+    """The sphere-model checker of `ground_truth_checker` on the scene's base obstacles alone
+    (no floor, no self-collision test): a configuration or straight segment is valid for
+    `ground_truth_checker(scene, margin=m)` iff it is valid for
+    `ground_truth_checker(scene, base_obstacles=False, margin=m)` and for this one (the
+    verdict is an AND over the primitives; `layout_grasps` shares the first part among the
+    obstacle draws of a layout)."""
+    robot = RobotConfig(base_pos=scene.robot_base_pos, base_yaw=scene.robot_base_yaw)
+    spheres = panda_sphere_model(robot, finger_width)
+    return ValidityChecker(spheres, None, PrimitiveSet.from_shapes(list(scene.base_obstacles)),
+                           ValidityConfig(margin=margin, check_self=False))
+
+
 @lru_cache(maxsize=4)
 def robot_ik(robot: RobotConfig) -> PandaIK:
     """A cached IK solver of the robot (base pose, camera)."""
@@ -199,21 +212,30 @@ def first_valid_grasp(ik: PandaIK, T_world_tcp: np.ndarray, sols: np.ndarray, fu
     free of ground-truth (MuJoCo) contacts with the fingers open."""
     if len(sols) == 0:
         return None
+    for q in sols[no_target.are_valid(sols)]:
+        if world is not None and world.in_collision(q, GRIPPER_MAX_WIDTH, include_self=True):
+            continue
+        found = grasp_chain(ik, T_world_tcp, q, full, no_target)
+        if found is not None:
+            return found
+    return None
+
+
+def grasp_chain(ik: PandaIK, T_world_tcp: np.ndarray, q: np.ndarray, full: ValidityChecker,
+                no_target: ValidityChecker):
+    """`first_valid_grasp`'s test of one IK solution q (already valid for no_target):
+    (q, q_pregrasp, q_lift) when its pre-grasp, lift and the straight segments are valid, or None."""
     a = T_world_tcp[:3, 2]
     T_pre, T_lift = T_world_tcp.copy(), T_world_tcp.copy()
     T_pre[:3, 3] -= PREGRASP_BACK * a
     T_lift[2, 3] += LIFT_HEIGHT
-    for q in sols[no_target.are_valid(sols)]:
-        if world is not None and world.in_collision(q, GRIPPER_MAX_WIDTH, include_self=True):
-            continue
-        pre = _near(ik, T_pre, q)
-        if pre is None or not full.is_valid(pre) or not no_target.edge_valid(pre, q):
-            continue
-        lift = _near(ik, T_lift, q)
-        if lift is None or not no_target.is_valid(lift) or not no_target.edge_valid(q, lift):
-            continue
-        return q, pre, lift
-    return None
+    pre = _near(ik, T_pre, q)
+    if pre is None or not full.is_valid(pre) or not no_target.edge_valid(pre, q):
+        return None
+    lift = _near(ik, T_lift, q)
+    if lift is None or not no_target.is_valid(lift) or not no_target.edge_valid(q, lift):
+        return None
+    return q, pre, lift
 
 
 def find_grasp(world: World, q_ref: np.ndarray | None = None, max_candidates: int | None = None) -> GroundTruthGrasp | None:

@@ -21,7 +21,7 @@ from .scenes import SceneSpec
 
 #: Modules whose source decides which scene is accepted and what its certificate holds.
 _SOURCES = ("scenes.py", "scene_io.py", "objects.py", "layout.py", "levels.py", "severe.py", "certify.py", "home_clearance.py", "view_search.py", "outside_views.py",
-            "oracle.py", "world.py", "physics.py", "fixed_views.py", "aimed_obstacles.py", os.path.join("..", "exploration", "fixed_views.py"),
+            "oracle.py", "world.py", "physics.py", "fixed_views.py", "aimed_obstacles.py", "layout_grasps.py", os.path.join("..", "exploration", "fixed_views.py"),
             os.path.join("..", "exploration", "world_model.py"))
 
 

@@ -401,16 +401,15 @@ class World:
             return 0.0
         dirs = self._pixel_dirs_cam().reshape(self.camera.height, self.camera.width, 3)[px[1], px[0]]
         dirs_w = dirs @ T_world_cam[:3, :3].T
-        dist_all, gid_all = self.cast_rays(T_world_cam[:3, 3], dirs_w, _RAY_GROUPS if with_robot else _SCENE_GROUPS)
         dist_t, gid_t = self.cast_rays(T_world_cam[:3, 3], dirs_w, _TARGET_ONLY)
-        in_range = (dist_t > self.camera.depth_min) & (dist_t <= self.camera.depth_max)
-        alone = np.count_nonzero((gid_t >= 0) & in_range)
+        on_target = (gid_t >= 0) & (dist_t > self.camera.depth_min) & (dist_t <= self.camera.depth_max)
+        alone = np.count_nonzero(on_target)
         if alone == 0:
             return 0.0
-        hit_t = np.zeros(len(gid_all), dtype=bool)
+        # only the rays that reach the target alone can see it: the scene is cast along those
+        _, gid_all = self.cast_rays(T_world_cam[:3, 3], dirs_w[on_target], _RAY_GROUPS if with_robot else _SCENE_GROUPS)
         ok = gid_all >= 0
-        hit_t[ok] = self.is_target_geom[gid_all[ok]]
-        seen = np.count_nonzero(hit_t & in_range)
+        seen = np.count_nonzero(self.is_target_geom[gid_all[ok]])
         return seen / alone
 
     def _target_pixels(self, T_world_cam: np.ndarray, stride: int):
