@@ -12,7 +12,7 @@ from scipy import stats
 from compass_manip.bench.intervals import Z95, mean_t95, wilson95
 from compass_manip.bench.report import write_report
 from compass_manip.bench.store import ResultsStore, TrialRecord
-from compass_manip.bench.summary import ablation_grasp, ablation_nfa, failure_breakdown, table_one
+from compass_manip.bench.summary import ablation_grasp, ablation_nfa, ablation_rule, failure_breakdown, table_one
 from compass_manip.viz.plots import resample_curve
 
 TFT = {("fv", 1): [10.0, 20.0, 30.0], ("compass", 1): [5.0, 6.0, 7.0],
@@ -103,6 +103,15 @@ def test_ablation_and_failure_tables():
     assert any("Absent from this results file: compass-no-grasp-constraints." in n for n in grasp.notes)
     assert grasp.header[2:5] == ("SR (%) ↑", "Grasp SR (%) ↑", "MC ↓")
     assert grasp.rows[1][4] == "1/3" and "runner_error ↓" in grasp.header
+    assert ablation_rule(recs) is None  # no compass-baseline-rule trial: no table
+    rule_recs = recs + [TrialRecord("compass-baseline-rule", 1, 0, t, 0, t == 0, None if t == 0 else "collision", None,
+                                    "tests:hand", None, {"tft_s": 4.0 + t, "found": True, "collisions": t}, 1.0)
+                        for t in range(2)]
+    rule = ablation_rule(rule_recs)
+    assert [r[:2] for r in rule.rows] == [("L1", "compass"), ("L1", "compass-baseline-rule"), ("L2", "compass")]
+    assert rule.header[2:] == ("TFT (s) ↓", "Found (%) ↑", "SR (%) ↑", "MC ↓")
+    assert rule.rows[1][2].startswith("4.5 ± ") and rule.rows[1][3].startswith("100.0 [") and rule.rows[1][5] == "1/2"
+    assert rule.rows[0][5] == "1/3" and "compass-baseline-rule" not in table_one(rule_recs).header[-1]
     fb = failure_breakdown(recs)
     assert fb.header == ("Method", "Level", "Trials", "success", "grasp_failed", "runner_error", "target_not_found")
     row = {(r[0], r[1]): r for r in fb.rows}[("compass", "L2")]
@@ -136,4 +145,6 @@ def test_the_grasp_ablation_the_report_reads_is_a_runnable_trial_method():
     from compass_manip.trial.runner import trial_methods
 
     assert GRASP_ABLATION == GRASP_ABLATION_METHOD
-    assert {GRASP_ABLATION, NFA_ABLATION} <= set(trial_methods())
+    from compass_manip.bench.summary import RULE_ABLATION
+
+    assert {GRASP_ABLATION, NFA_ABLATION, RULE_ABLATION} <= set(trial_methods())

@@ -137,6 +137,10 @@ def test_compass_keeps_unknown_space_unsafe_inside_omega_safe_and_free_beyond_it
     shared = WorldModel(setup[2], CompassConfig().world, m.robot, task)
     assert shared.assumed_free[inside & (c[..., 0] < 0.2) & (c[..., 2] > 0.1)].all()
     assert _method(setup, CompassConfig(near_field_unsafe=False)).world.assumed_free[inside & (c[..., 0] < 0.2)].any()
+    # the registry's compass-baseline-rule is COMPASS on the baselines' rule, map for map
+    b = make_method("compass-baseline-rule", task, CompassConfig(), np.random.default_rng(0), setup[2], setup[3])
+    assert b.name == "compass-baseline-rule"
+    np.testing.assert_array_equal(b.world.assumed_free, shared.assumed_free)
 
 
 def test_a_stuck_exploration_step_falls_back_to_a_near_field_step(setup, monkeypatch):

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 from ..errors import CompassInputError
 from ..paths import check_output_dir
 from .store import ResultsStore, TrialRecord
-from .summary import ablation_grasp, ablation_nfa, failure_breakdown, run_overview, table_one
+from .summary import ablation_grasp, ablation_nfa, ablation_rule, failure_breakdown, run_overview, table_one
 
 SYNTHETIC_FN = "compass_manip.bench.synthetic:synthetic_trial"
 PLOTS = (("explored_over_time.png", "Explored fraction over time per level (mean ± std per method)"),
@@ -53,8 +53,11 @@ def build_blocks(records: list[TrialRecord], meta: dict, db: str, plot_paths: li
     blocks += [("table", run_overview(records)), ("h2", "Table I")]
     t1 = table_one(records)
     blocks.append(("table", t1) if t1 else ("p", "No main method (fv, ig, gse, compass or others) in this file."))
-    blocks += [("h2", "Ablations"), ("table", ablation_nfa(records)), ("table", ablation_grasp(records)),
-               ("h2", "Failures"), ("table", failure_breakdown(records)), ("h2", "Plots")]
+    blocks += [("h2", "Ablations"), ("table", ablation_nfa(records)), ("table", ablation_grasp(records))]
+    rule = ablation_rule(records)
+    if rule is not None:
+        blocks.append(("table", rule))
+    blocks += [("h2", "Failures"), ("table", failure_breakdown(records)), ("h2", "Plots")]
     blocks += [("img", p, caption) for p, (_, caption) in zip(plot_paths, PLOTS)]
     return blocks
 

@@ -1,4 +1,4 @@
-"""The report's tables from stored trials: Table I, the two ablations, failures, the run itself.
+"""The report's tables from stored trials: Table I, the ablations, failures, the run itself.
 
 Means carry a 95 % Student-t interval over trials; rates (SR, DSR, grasp SR) a 95 % Wilson
 interval. A metric's mean is over the trials that report it (runner failures have no
@@ -21,7 +21,9 @@ from .table import Table, best_indices, fmt_count, fmt_mean, fmt_rate
 METHOD_ORDER = ("fv", "ig", "gse", "compass")
 NFA_ABLATION = "compass-no-nfa"
 GRASP_ABLATION = "compass-no-grasp-constraints"
-ABLATIONS = (NFA_ABLATION, GRASP_ABLATION)
+#: COMPASS under the baselines' motion rule (unknown space near the base counts as free)
+RULE_ABLATION = "compass-baseline-rule"
+ABLATIONS = (NFA_ABLATION, GRASP_ABLATION, RULE_ABLATION)
 SUCCESS = "success"
 #: rate rows: the share of trials whose result has this key true (FOUND: a true detection)
 FOUND = "found"
@@ -155,6 +157,30 @@ def ablation_grasp(records: list[TrialRecord]) -> Table:
     absent = _absent({m for m, _ in groups}, "compass", GRASP_ABLATION)
     return Table("Ablation: without grasp constraints", ("Level", "Method", *(c for c, _ in columns)),
                  _variant_rows(groups, "compass", GRASP_ABLATION, columns), notes=tuple(notes + ([absent] if absent else [])))
+
+
+def ablation_rule(records: list[TrialRecord]) -> Table | None:
+    """compass vs compass-baseline-rule (the same method on the baselines' motion rule): what
+    the near-field safety rule costs and buys, per level; None when the file holds no
+    compass-baseline-rule trial."""
+    groups = group(records)
+    if not any(m == RULE_ABLATION for m, _ in groups):
+        return None
+    with_result = lambda recs: [r for r in recs if r.result is not None]  # noqa: E731
+    columns = [
+        ("TFT (s) ↓", lambda recs: fmt_mean(mean_t95(r.result.get("tft_s") for r in with_result(recs)), 1.0, 1)),
+        ("Found (%) ↑", lambda recs: fmt_rate(wilson95(sum(bool(r.result.get(FOUND)) for r in with_result(recs)),
+                                                       len(recs)))),
+        ("SR (%) ↑", lambda recs: fmt_rate(wilson95(sum(r.success for r in recs), len(recs)))),
+        ("MC ↓", lambda recs: fmt_count(sum(1 for r in with_result(recs) if (r.result.get("collisions") or 0) > 0),
+                                        len(with_result(recs)))),
+    ]
+    notes = ["compass-baseline-rule: COMPASS with unknown space outside the confined space counted as free, "
+             "Omega_safe included (the baselines' rule); compass keeps unknown space inside Omega_safe unsafe.",
+             "MC: trials with a ground-truth collision, over trials with a result."]
+    absent = _absent({m for m, _ in groups}, "compass", RULE_ABLATION)
+    return Table("Ablation: the near-field motion rule", ("Level", "Method", *(c for c, _ in columns)),
+                 _variant_rows(groups, "compass", RULE_ABLATION, columns), notes=tuple(notes + ([absent] if absent else [])))
 
 
 def failure_breakdown(records: list[TrialRecord]) -> Table:

@@ -34,6 +34,10 @@ METHODS: dict[str, Callable] = {
                                     lambda c: replace(c, weights=replace(c.weights, momentum=0.0))),
     "compass-no-manip": _compass("compass-no-manip",
                                  lambda c: replace(c, weights=replace(c.weights, manipulability=0.0))),
+    # COMPASS under the baselines' motion rule (unknown space outside the confined space
+    # counts as free, Omega_safe included): the same rule for every method, to separate
+    # what the view choice gains from what the near-field safety rule costs
+    "compass-baseline-rule": _compass("compass-baseline-rule", lambda c: replace(c, near_field_unsafe=False)),
     "fv": fv_factory("fv"),
     "ig": ig_factory("ig"),
     "ig-occlusion": ig_factory("ig-occlusion"),
