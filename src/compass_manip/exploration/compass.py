@@ -12,6 +12,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from ..errors import check_field_types
 from ..robot.ik import PandaIK
 from ..robot.model import RobotConfig
 from ..task import Task
@@ -49,6 +50,9 @@ class CompassConfig:
     hint_memory: int = 20
     escape: EscapeConfig = field(default_factory=EscapeConfig)
     near_field_unsafe: bool = True
+
+    def __post_init__(self) -> None:
+        check_field_types(self, nonnegative_ints=True)
 
 
 def near_field_world(config: CompassConfig) -> WorldModelConfig:

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import CompassInputError
+from ..errors import CompassInputError, check_field_types
 from ..robot.model import Q_MAX, Q_MIN
 from .base import Decision, Phase
 
@@ -40,6 +40,7 @@ class EscapeConfig:
     max_approach: float = 0.005
 
     def __post_init__(self) -> None:
+        check_field_types(self, nonnegative_ints=True)
         if self.samples < 1 or not 0 < self.tolerance < self.radius:
             raise CompassInputError(f"EscapeConfig needs samples >= 1 and 0 < tolerance {self.tolerance} < "
                                     f"radius {self.radius}")

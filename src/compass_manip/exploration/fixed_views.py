@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import CompassInputError
+from ..errors import CompassInputError, check_field_types
 from ..robot.ik import PandaIK
 from ..task import Task
 from .base import Decision, Phase, StopReason
@@ -58,6 +58,7 @@ class FixedViewsConfig:
     planning: ViewPlanningConfig = field(default_factory=ViewPlanningConfig)
 
     def __post_init__(self) -> None:
+        check_field_types(self, nonnegative_ints=True)
         fr = np.asarray(self.heights + self.lateral, float)
         if len(self.heights) == 0 or len(self.lateral) == 0 or np.any((fr < 0) | (fr > 1)):
             raise CompassInputError("heights and lateral must be non-empty fractions in [0, 1]")

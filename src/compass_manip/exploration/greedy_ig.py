@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import CompassInputError
+from ..errors import CompassInputError, check_field_types
 from ..task import Task
 from .base import Decision, Phase, StopReason
 from .baseline_common import MapMethod, ViewPlanningConfig, interior_box, plan_to, timed
@@ -58,6 +58,7 @@ class GreedyIGConfig:
     planning: ViewPlanningConfig = field(default_factory=ViewPlanningConfig)
 
     def __post_init__(self) -> None:
+        check_field_types(self, nonnegative_ints=True)
         if self.n_views < 1 or self.max_attempts < 1:
             raise CompassInputError("GreedyIGConfig needs n_views >= 1 and max_attempts >= 1")
         if not 0 < self.radius[0] <= self.radius[1]:

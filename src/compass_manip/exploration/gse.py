@@ -29,7 +29,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ..errors import CompassInputError
+from ..errors import CompassInputError, check_field_types
 from ..mapping.infogain import info_gain_batch
 from ..motion.tree import JointTree
 from ..robot.model import Q_MAX, Q_MIN
@@ -80,6 +80,7 @@ class GSEConfig:
     planning: ViewPlanningConfig = field(default_factory=ViewPlanningConfig)
 
     def __post_init__(self) -> None:
+        check_field_types(self, nonnegative_ints=True)
         if self.iterations < 1 or self.capacity < 2 or self.step <= 0 or self.local_range <= 0:
             raise CompassInputError("GSEConfig needs iterations >= 1, capacity >= 2, step > 0, local_range > 0")
         if self.path_lambda < 0:

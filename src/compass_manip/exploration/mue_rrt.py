@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import CompassInputError
+from ..errors import CompassInputError, check_field_types
 from ..mapping.infogain import info_gain_batch
 from ..motion.tree import JointTree
 from ..robot.model import Q_MAX, Q_MIN
@@ -62,6 +62,7 @@ class TreeConfig:
     space_margin: float = -0.01
 
     def __post_init__(self) -> None:
+        check_field_types(self, nonnegative_ints=True)
         if not (0 <= self.p_frontier and 0 <= self.p_prior and 0 <= self.p_hint
                 and self.p_frontier + max(self.p_prior, self.p_hint) <= 1):
             raise CompassInputError(
@@ -82,6 +83,9 @@ class UtilityWeights:
 
     def as_tuple(self) -> tuple[float, float, float, float]:
         return (self.gain, self.momentum, self.manipulability, self.heuristic)
+
+    def __post_init__(self) -> None:
+        check_field_types(self, nonnegative_ints=True)
 
 
 @dataclass(frozen=True, eq=False)

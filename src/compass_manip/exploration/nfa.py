@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import CompassInputError
+from ..errors import CompassInputError, check_field_types
 from ..mapping.infogain import info_gain_batch
 from ..mapping.occupancy import OccupancyMap, VoxelState
 from ..robot.model import Q_MAX, Q_MIN
@@ -58,6 +58,7 @@ class NFAConfig:
     scan_resolution: float = 0.02
 
     def __post_init__(self) -> None:
+        check_field_types(self, nonnegative_ints=True)
         if self.n_candidates < 1 or self.max_views < 0 or self.min_gain < 0:
             raise CompassInputError("NFAConfig needs n_candidates >= 1, max_views >= 0, min_gain >= 0")
         if not np.all(np.asarray(self.safe_box_max) > np.asarray(self.safe_box_min)):

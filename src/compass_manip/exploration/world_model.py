@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..errors import check_field_types
 from ..mapping.distance import mark_in_spheres, mark_robot, unsafe_mask
 from ..mapping.distance_incremental import CappedDistance
 from ..mapping.frontiers import FrontierCluster, FrontierConfig, find_frontiers
@@ -77,6 +78,9 @@ class WorldModelConfig:
     sweep_step: float = 0.05
     validity: ValidityConfig = field(default_factory=lambda: ValidityConfig(margin=0.005, edge_resolution=0.02))
     frontiers: FrontierConfig = field(default_factory=lambda: FrontierConfig(min_cluster_size=4))
+
+    def __post_init__(self) -> None:
+        check_field_types(self, nonnegative_ints=True)
 
 
 def outside_space_mask(occ: OccupancyMap, task, margin: float, floor_margin: float) -> np.ndarray:

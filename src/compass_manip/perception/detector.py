@@ -27,7 +27,7 @@ from typing import Callable, Protocol
 import numpy as np
 from scipy import ndimage
 
-from ..errors import CompassInputError
+from ..errors import CompassInputError, check_field_types
 from ..task import TargetQuery
 from ..types import Observation
 from .colour import ColourMaskCache, colour_mask  # noqa: F401 (colour_mask: part of this module's API)
@@ -119,6 +119,7 @@ class DetectorConfig:
     hue_check: bool = True
 
     def __post_init__(self) -> None:
+        check_field_types(self, nonnegative_ints=True)
         if not 0 < self.colour_max_angle_deg < 45:
             raise CompassInputError(f"colour_max_angle_deg {self.colour_max_angle_deg} must be in (0, 45)")
         if self.border_completeness is not None and not 0 < self.border_completeness <= 1:

@@ -40,7 +40,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..errors import CompassInputError
+from ..errors import CompassInputError, check_field_types, instance_of
 from ..motion.planner import PlannerConfig, plan
 from ..robot.model import Q_MAX, Q_MIN
 from ..types import Trajectory
@@ -129,6 +129,7 @@ class CertifyConfig:
     dense_grasp_levels: tuple[int, ...] = (4,)
 
     def __post_init__(self) -> None:
+        check_field_types(self, nonnegative_ints=True)
         if isinstance(self.plan_checks, bool) or not isinstance(self.plan_checks, int) or not 1 <= self.plan_checks <= 10**8:
             raise CompassInputError(f"plan_checks {self.plan_checks!r} is not allowed; use a whole number 1..10**8")
         if not 0.0 <= self.severe_grasp_margin <= 0.05:
@@ -469,7 +470,7 @@ def certified_scene(level: int, index: int, seed: int = 0, config: CertifyConfig
     certification time) and writes the entry (with cache).
     """
     level = check_level(level)
-    config = config or CertifyConfig()
+    config = instance_of(config, CertifyConfig, "config", CertifyConfig())
     if isinstance(index, bool) or not isinstance(index, (int, np.integer)) or index < 0:
         raise CompassInputError(f"scene index {index!r} is not allowed; use an integer >= 0")
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:

@@ -19,7 +19,7 @@ from enum import Enum
 import mujoco
 import numpy as np
 
-from ..errors import CompassInputError
+from ..errors import CompassInputError, check_field_types
 from ..motion.timing import TimingConfig, time_parameterize
 from ..types import Trajectory
 from .executor import check_trajectory, interpolate
@@ -60,6 +60,7 @@ class GraspExecConfig:
     settle: float = 0.3
 
     def __post_init__(self) -> None:
+        check_field_types(self, nonnegative_ints=True)
         for k in ("velocity_scale", "approach_scale"):
             v = getattr(self, k)
             if not 0.0 < v <= 1.0:

@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..errors import check_field_types
 from ..exploration.base import Decision, Phase, StopReason
 from ..exploration.baseline_common import MapMethod, ViewPlanningConfig, plan_to, timed
 from ..exploration.viewpoints import sample_direction_in_cone, view_configurations, view_pose
@@ -47,6 +48,9 @@ class OracleConfig:
     revisit_radius: float = 0.05
     max_attempts: int = 6
     planning: ViewPlanningConfig = field(default_factory=ViewPlanningConfig)
+
+    def __post_init__(self) -> None:
+        check_field_types(self, nonnegative_ints=True)
 
 
 def line_of_sight_clear(occ, a: np.ndarray, b: np.ndarray, clearance: float) -> bool:

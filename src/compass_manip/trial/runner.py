@@ -12,7 +12,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..errors import CompassInputError
+from ..errors import CompassInputError, instance_of
 from ..exploration.registry import available_methods, make_method
 from ..perception.buffer import DetectionBuffer
 from ..perception.detector import DETECTORS
@@ -56,6 +56,9 @@ def trial_methods() -> tuple[str, ...]:
 
 def check_spec(spec: TrialSpec) -> TrialSpec:
     """Raise CompassInputError (one line naming what is allowed) on a bad spec."""
+    if not isinstance(spec, TrialSpec):
+        raise CompassInputError(f"spec = {spec!r:.60} is not allowed; "
+                                "use a TrialSpec(method, level, scene, trial, seed)")
     if spec.method not in trial_methods():
         names = ", ".join(trial_methods())
         raise CompassInputError(f"method {spec.method!r} is not registered; use one of {names}")
@@ -90,7 +93,7 @@ def run_trial(spec: TrialSpec, config: TrialConfig | None = None, progress=None)
 def run_trial_full(spec: TrialSpec, config: TrialConfig | None = None, progress=None, observer=None) -> TrialRun:
     """Run one trial; `observer` (a `trial.observer.TrialObserver`, e.g. a video or Rerun
     recorder) is told of every event and closed at the end, also when the trial raises."""
-    config = config or TrialConfig()
+    config = instance_of(config, TrialConfig, "config", TrialConfig())
     check_spec(spec)
     method_name = spec.method
     if spec.method == GRASP_ABLATION_METHOD:

@@ -1,0 +1,131 @@
+"""The config dataclasses a user builds (trial, exploration, perception, grasp, sim) refuse a
+value of the wrong kind in __post_init__ with a CompassInputError naming Class.field, the
+value and what is allowed; run_trial and certified_scene refuse a wrong spec or config before
+any scene is generated."""
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+
+from compass_manip.errors import CompassInputError, _field_kinds
+from compass_manip.exploration.baseline_common import ViewPlanningConfig
+from compass_manip.exploration.compass import CompassConfig
+from compass_manip.exploration.escape import EscapeConfig
+from compass_manip.exploration.fixed_views import FixedViewsConfig
+from compass_manip.exploration.greedy_ig import GreedyIGConfig
+from compass_manip.exploration.gse import GSEConfig
+from compass_manip.exploration.mue_rrt import TreeConfig, UtilityWeights
+from compass_manip.exploration.nfa import NFAConfig
+from compass_manip.exploration.world_model import WorldModelConfig
+from compass_manip.grasp.candidates import CandidateConfig
+from compass_manip.grasp.hypotheses import HypothesisConfig
+from compass_manip.grasp.select import GraspSelectConfig
+from compass_manip.grasp.target import TargetConfig
+from compass_manip.perception.buffer import BufferConfig
+from compass_manip.perception.confirm import ConfirmConfig
+from compass_manip.perception.detector import DetectorConfig
+from compass_manip.sim import certify
+from compass_manip.sim.advance import AdvanceConfig
+from compass_manip.sim.certify import CertifyConfig
+from compass_manip.sim.grasp_exec import GraspExecConfig
+from compass_manip.sim.grasp_only import GraspOnlyConfig
+from compass_manip.sim.keyframes import KeyframeRule
+from compass_manip.sim.near_field import NearFieldScanConfig
+from compass_manip.trial import runner
+from compass_manip.trial.config import ClockConfig, GraspTrialConfig, SensingConfig, TrialConfig
+from compass_manip.trial.grasp_looks import BaseLookConfig
+from compass_manip.trial.grasp_scan import TrialScanConfig
+from compass_manip.trial.inspect import InspectConfig
+from compass_manip.trial.oracle_method import OracleConfig
+from compass_manip.trial.verify import VerifyConfig
+
+CONFIGS = [ClockConfig, SensingConfig, GraspTrialConfig, TrialConfig, BaseLookConfig, TrialScanConfig, InspectConfig,
+           OracleConfig, VerifyConfig, ViewPlanningConfig, CompassConfig, EscapeConfig, FixedViewsConfig,
+           GreedyIGConfig, GSEConfig, TreeConfig, UtilityWeights, NFAConfig, WorldModelConfig, BufferConfig,
+           ConfirmConfig, DetectorConfig, CandidateConfig, HypothesisConfig, GraspSelectConfig, TargetConfig,
+           AdvanceConfig, CertifyConfig, GraspExecConfig, GraspOnlyConfig, KeyframeRule, NearFieldScanConfig]
+#: (class, field, kind) of every field whose kind the check knows (bool, int, float, str, enum, config, numbers)
+FIELDS = [(cls, name, kind) for cls in CONFIGS for name, kind, _, _ in _field_kinds(cls)]
+
+
+def _refused(call, *needles: str) -> str:
+    with pytest.raises(CompassInputError) as info:
+        call()
+    msg = str(info.value)
+    assert "\n" not in msg and all(n in msg for n in needles), msg
+    return msg
+
+
+def test_every_config_builds_with_its_defaults_and_the_sweep_covers_them():
+    for cls in CONFIGS:
+        cls()
+    assert len(FIELDS) > 300 and {k for _, _, k in FIELDS} == {"bool", "int", "float", "str", "enum", "config",
+                                                              "numbers"}
+
+
+@pytest.mark.parametrize("cls, name, kind", FIELDS, ids=[f"{c.__name__}.{n}" for c, n, _ in FIELDS])
+def test_a_value_of_the_wrong_kind_names_the_field(cls, name, kind):
+    bad = "abc" if kind != "str" else 3
+    _refused(lambda: cls(**{name: bad}), f"{cls.__name__}.{name}", "not allowed")
+    if kind == "float":
+        default = getattr(cls(), name)
+        for v in (math.nan, -math.inf if math.isinf(default) else math.inf):
+            _refused(lambda: cls(**{name: v}), f"{cls.__name__}.{name}")
+    if kind == "int" and getattr(cls(), name) >= 0:
+        _refused(lambda: cls(**{name: -1}), f"{cls.__name__}.{name}")
+
+
+@pytest.mark.parametrize("call, needles", [
+    (lambda: TrialConfig(method=None), ("TrialConfig.method", "use a CompassConfig")),
+    (lambda: TrialConfig(grasp={"enabled": False}), ("TrialConfig.grasp", "use a GraspTrialConfig")),
+    (lambda: TrialConfig(time_limit_s="60"), ("TrialConfig.time_limit_s", "'60'")),
+    (lambda: TrialConfig(surroundings_margin=-0.1), ("TrialConfig.surroundings_margin", "0..1 m")),
+    (lambda: TrialConfig(surroundings_margin=math.nan), ("TrialConfig.surroundings_margin",)),
+    (lambda: SensingConfig(frame_rate=-3.0), ("SensingConfig.frame_rate", "0..1000 Hz")),
+    (lambda: SensingConfig(check_step=0.0), ("SensingConfig.check_step", "1e-4..0.5 rad")),
+    (lambda: ClockConfig(measured="no"), ("ClockConfig.measured", "True or False")),
+    (lambda: GraspTrialConfig(enabled=0), ("GraspTrialConfig.enabled",)),
+    (lambda: GreedyIGConfig(formulation="occlusion-aware"), ("GreedyIGConfig.formulation", "'OCCLUSION_AWARE'")),
+    (lambda: InspectConfig(view_distance=0.3), ("InspectConfig.view_distance", "(0.25, 0.5)")),
+    (lambda: BaseLookConfig(eye=(0.25, -0.35, 0.55)), ("BaseLookConfig.eye", "nested")),
+    (lambda: TreeConfig(rays=(20, math.nan)), ("TreeConfig.rays",)),
+    (lambda: WorldModelConfig(max_range=math.inf), ("WorldModelConfig.max_range",)),
+    (lambda: GSEConfig(local_range=math.nan), ("GSEConfig.local_range",)),
+])
+def test_named_bad_values(call, needles):
+    _refused(call, *needles)
+
+
+@pytest.mark.parametrize("call", [
+    lambda: GSEConfig(local_range=math.inf),  # its default: no limit
+    lambda: DetectorConfig(confirm_completeness=None),  # `float | None`
+    lambda: ConfirmConfig(accept_after_s=None),
+    lambda: GraspSelectConfig(max_failed_plans=None),
+    lambda: TreeConfig(iterations=np.int64(50), step=np.float32(0.1), view_distance=[0.2, 0.4]),
+    lambda: ClockConfig(planning_charge_s=0),  # an int for a float field
+    lambda: SensingConfig(frame_rate=0.0),  # frames only at the end of each motion, as the executor allows
+    lambda: GreedyIGConfig(roi_margin=-0.05),  # a negative margin where the default is negative
+])
+def test_valid_values_are_still_accepted(call):
+    call()
+
+
+def test_run_trial_refuses_a_bad_spec_or_config_before_the_scene(monkeypatch):
+    def no_scene(*a, **k):
+        raise AssertionError("a scene was generated")
+
+    monkeypatch.setattr(runner, "certified_scene", no_scene)
+    _refused(lambda: runner.run_trial("compass L1 s0"), "spec = 'compass L1 s0'", "TrialSpec")
+    _refused(lambda: runner.run_trial(runner.TrialSpec("compass", 1, 0), {"time_limit_s": 5}), "config must be a "
+             "TrialConfig")
+    _refused(lambda: runner.run_trial(runner.TrialSpec("compass", 1, 0, trial=1.5)), "trial 1.5")
+
+
+def test_certified_scene_refuses_a_config_that_is_not_a_certify_config(monkeypatch):
+    monkeypatch.setattr(certify, "regenerate", lambda *a: (_ for _ in ()).throw(AssertionError("generated")))
+    _refused(lambda: certify.certified_scene(1, 0, 0, config={"max_attempts": 3}, cache=False),
+             "config must be a CertifyConfig")
+    _refused(lambda: certify.certified_scene(1, 0, 0, config=dataclasses.replace), "CertifyConfig")
