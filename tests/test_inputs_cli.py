@@ -70,6 +70,10 @@ def test_run_grasp_only_still_takes_method_compass(capsys, monkeypatch):
     assert reached == [(1, 0, 0)]
 
 
+def test_demo_names_its_own_index_option(capsys, no_work):
+    _one_line_exit_2(["demo", "--index", "-1"], capsys, "--index -1 is not allowed")
+
+
 def test_scenes_empty_out_is_refused_not_ignored(capsys, no_work):
     _one_line_exit_2(["scenes", "1", "--count", "1", "--out", ""], capsys, "--out is empty")
 

@@ -70,11 +70,11 @@ def test_every_config_builds_with_its_defaults_and_the_sweep_covers_them():
 def test_a_value_of_the_wrong_kind_names_the_field(cls, name, kind):
     bad = "abc" if kind != "str" else 3
     _refused(lambda: cls(**{name: bad}), f"{cls.__name__}.{name}", "not allowed")
+    default = getattr(cls(), name)  # None for `float | None` fields that are off by default
     if kind == "float":
-        default = getattr(cls(), name)
-        for v in (math.nan, -math.inf if math.isinf(default) else math.inf):
+        for v in (math.nan, -math.inf if default is not None and math.isinf(default) else math.inf):
             _refused(lambda: cls(**{name: v}), f"{cls.__name__}.{name}")
-    if kind == "int" and getattr(cls(), name) >= 0:
+    if kind == "int" and (default is None or default >= 0):
         _refused(lambda: cls(**{name: -1}), f"{cls.__name__}.{name}")
 
 
@@ -90,8 +90,13 @@ def test_a_value_of_the_wrong_kind_names_the_field(cls, name, kind):
     (lambda: GraspTrialConfig(enabled=0), ("GraspTrialConfig.enabled",)),
     (lambda: GreedyIGConfig(formulation="occlusion-aware"), ("GreedyIGConfig.formulation", "'OCCLUSION_AWARE'")),
     (lambda: InspectConfig(view_distance=0.3), ("InspectConfig.view_distance", "(0.25, 0.5)")),
-    (lambda: BaseLookConfig(eye=(0.25, -0.35, 0.55)), ("BaseLookConfig.eye", "nested")),
+    (lambda: BaseLookConfig(eye=(0.25, -0.35, 0.55)), ("BaseLookConfig.eye", "nested as (2, 3)")),
     (lambda: TreeConfig(rays=(20, math.nan)), ("TreeConfig.rays",)),
+    (lambda: TreeConfig(rays=(20, 15.5)), ("TreeConfig.rays", "2 whole numbers")),
+    (lambda: InspectConfig(view_distance=(0.3,)), ("InspectConfig.view_distance", "2 finite numbers")),
+    (lambda: NFAConfig(safe_box_min=(0.0, 0.0)), ("NFAConfig.safe_box_min", "3 finite numbers")),
+    (lambda: TrialScanConfig(back_eye=((0.2, 0.3, 0.5),)), ("TrialScanConfig.back_eye", "nested as (2, 3)")),
+    (lambda: CandidateConfig(depths=((0.01,),)), ("CandidateConfig.depths", "finite numbers like (0.0,)")),
     (lambda: WorldModelConfig(max_range=math.inf), ("WorldModelConfig.max_range",)),
     (lambda: GSEConfig(local_range=math.nan), ("GSEConfig.local_range",)),
 ])
@@ -108,6 +113,9 @@ def test_named_bad_values(call, needles):
     lambda: ClockConfig(planning_charge_s=0),  # an int for a float field
     lambda: SensingConfig(frame_rate=0.0),  # frames only at the end of each motion, as the executor allows
     lambda: GreedyIGConfig(roi_margin=-0.05),  # a negative margin where the default is negative
+    lambda: FixedViewsConfig(heights=(0.8, 0.5), lateral=(0.5,)),  # `tuple[float, ...]`: any length
+    lambda: GraspSelectConfig(lift_heights=(0.05,)),
+    lambda: FixedViewsConfig(heights=[0.8, 0.5], lateral=[0.0, 1.0]),  # lists (a TypeError before)
 ])
 def test_valid_values_are_still_accepted(call):
     call()
@@ -121,7 +129,17 @@ def test_run_trial_refuses_a_bad_spec_or_config_before_the_scene(monkeypatch):
     _refused(lambda: runner.run_trial("compass L1 s0"), "spec = 'compass L1 s0'", "TrialSpec")
     _refused(lambda: runner.run_trial(runner.TrialSpec("compass", 1, 0), {"time_limit_s": 5}), "config must be a "
              "TrialConfig")
-    _refused(lambda: runner.run_trial(runner.TrialSpec("compass", 1, 0, trial=1.5)), "trial 1.5")
+
+
+@pytest.mark.parametrize("args, needle", [
+    (("teleport", 1, 0), "method 'teleport' is not registered; use one of compass"),
+    (("compass", "1", 0), "level '1' is not allowed"),
+    (("compass", 1, 0, 1.5), "trial 1.5 is not allowed"),
+    (("compass", 1, 0, 0, -1), "seed -1 is not allowed"),
+    (("compass", 1, True), "scene True is not allowed"),
+])
+def test_trial_spec_is_checked_when_built(args, needle):
+    _refused(lambda: runner.TrialSpec(*args), needle)
 
 
 def test_certified_scene_refuses_a_config_that_is_not_a_certify_config(monkeypatch):

@@ -66,7 +66,8 @@ def check_field_types(config, nonnegative_ints: bool = False) -> None:
     accepted; finite, or the default's infinity), str fields a str, enum fields a member of
     the default's enum, config fields an instance of the default's class, number-tuple
     fields numbers of the default's nesting (finite, non-empty); a field annotated
-    `... | None` may also be None. Fields whose default is None, or whose default (or
+    `... | None` may also be None (`float | None` / `int | None` defaulting to None: a
+    number or None). Fields whose default is None, or whose default (or
     default_factory's value) is of no kind above, are not checked."""
     import dataclasses
 
@@ -103,9 +104,13 @@ def check_field_types(config, nonnegative_ints: bool = False) -> None:
                     arr = _np().asarray(value, dtype=float)
                 except (TypeError, ValueError, OverflowError):
                     pass
-            if arr is None or arr.ndim != default.ndim or arr.size == 0 or not _np().isfinite(arr).all():
-                nesting = "" if default.ndim == 1 else f"{default.ndim}-level nested "
-                raise CompassInputError(f"{where}; use finite {nesting}numbers like {tuple(default.tolist())}")
+            fixed, ann, whole = default  # a fixed shape unless annotated `tuple[X, ...]`; whole: `tuple[int, ...]`
+            if (arr is None or arr.ndim != fixed.ndim or arr.size == 0 or not _np().isfinite(arr).all()
+                    or ("..." not in ann and arr.shape != fixed.shape) or (whole and (arr != _np().round(arr)).any())):
+                kind_of = "whole numbers" if whole else "finite numbers"
+                what = (kind_of if "..." in ann else f"{fixed.size} {kind_of}" if fixed.ndim == 1
+                        else f"{kind_of} nested as {fixed.shape}")
+                raise CompassInputError(f"{where}; use {what} like {tuple(fixed.tolist())}")
 
 
 def _np():
@@ -138,6 +143,8 @@ def _field_kinds(cls) -> tuple:
         else:
             continue
         optional = "None" in str(f.type) or "Optional" in str(f.type)
+        if default is None and str(f.type) in ("float | None", "int | None"):  # a number, or None: off
+            default = 0.0 if str(f.type).startswith("float") else 0
         kind = None
         if isinstance(default, bool):
             kind = "bool"
@@ -157,7 +164,8 @@ def _field_kinds(cls) -> tuple:
             except (TypeError, ValueError):
                 continue
             if np.isfinite(arr).all():
-                kind, default = "numbers", arr
+                ann = str(f.type)
+                kind, default = "numbers", (arr, ann, "int" in ann and "float" not in ann)
         if kind is not None:
             out.append((f.name, kind, default, optional))
     return tuple(out)

@@ -59,7 +59,7 @@ class FixedViewsConfig:
 
     def __post_init__(self) -> None:
         check_field_types(self, nonnegative_ints=True)
-        fr = np.asarray(self.heights + self.lateral, float)
+        fr = np.asarray((*self.heights, *self.lateral), float)  # lists too
         if len(self.heights) == 0 or len(self.lateral) == 0 or np.any((fr < 0) | (fr > 1)):
             raise CompassInputError("heights and lateral must be non-empty fractions in [0, 1]")
         if not 0.0 <= self.depth <= 1.0:

@@ -40,11 +40,17 @@ from .result import TrialFailure, TrialResult
 
 @dataclass(frozen=True)
 class TrialSpec:
+    """One trial: a registered method (`trial_methods()`), level 1..4, scene index, trial
+    index and base seed (each an int 0 <= x < 2**63); checked when built (`check_spec`)."""
+
     method: str
     level: int
     scene: int
     trial: int = 0
     seed: int = 0
+
+    def __post_init__(self) -> None:
+        check_spec(self)
 
 
 def trial_methods() -> tuple[str, ...]:
