@@ -104,6 +104,33 @@ def test_named_bad_values(call, needles):
     _refused(call, *needles)
 
 
+#: (config, field, a value outside its range): resolutions, ranges, angles, margins, shares, counts
+OUT_OF_RANGE = [
+    (TreeConfig, "step", -0.1), (TreeConfig, "res", 0.0), (TreeConfig, "cone", 4.0), (TreeConfig, "gain_range", 1e12),
+    (TreeConfig, "view_distance", (0.45, 0.2)), (TreeConfig, "ik_q7", 0), (UtilityWeights, "momentum", -0.2),
+    (UtilityWeights, "cost_offset", 0.0), (WorldModelConfig, "max_range", -1.5),
+    (WorldModelConfig, "obstacle_halo", 2.0),
+    (WorldModelConfig, "sweep_step", 0.0), (NFAConfig, "edge_resolution", 0.0), (NFAConfig, "backoff", -0.1),
+    (GreedyIGConfig, "p_unknown", 1.0), (GreedyIGConfig, "cone", -1.0), (GreedyIGConfig, "min_information", -8.0),
+    (GSEConfig, "res", 1e12), (GSEConfig, "global_distance", (-0.2, 0.5)), (GSEConfig, "retry_iterations_factor", 0),
+    (CompassConfig, "verify_resolution", 0.0), (CompassConfig, "max_attempts", 0), (EscapeConfig, "max_approach", -1.0),
+    (FixedViewsConfig, "standoff", 1e12), (OracleConfig, "n_views", 0), (OracleConfig, "distance", (0.8, 0.25)),
+    (DetectorConfig, "min_value", -0.1), (DetectorConfig, "max_depth", 0.0), (DetectorConfig, "size_slack", -0.01),
+    (VerifyConfig, "max_range", 0.0), (VerifyConfig, "way_sigma", -1.0), (CandidateConfig, "line_radius", -0.004),
+    (HypothesisConfig, "min_turn", -0.26), (GraspSelectConfig, "max_joint_step", 0.0),
+    (GraspSelectConfig, "robot_clearance", 1e12), (CertifyConfig, "config_noise", -0.5), (CertifyConfig, "margin", 1.0),
+    (CertifyConfig, "min_obstacle_removal", 1.5), (GraspExecConfig, "settle", -0.3),
+    (GraspExecConfig, "hold_time", 1e12), (GraspOnlyConfig, "fine_margin", 0.0),
+    (NearFieldScanConfig, "edge_step", 0.0), (NearFieldScanConfig, "max_range", -1.0),
+]
+
+
+@pytest.mark.parametrize("cls, name, bad", OUT_OF_RANGE, ids=[f"{c.__name__}.{n}={v}" for c, n, v in OUT_OF_RANGE])
+def test_a_value_outside_its_range_names_the_field_and_the_range(cls, name, bad):
+    msg = _refused(lambda: cls(**{name: bad}), f"{cls.__name__}.{name} = ")
+    assert ".." in msg or "<=" in msg, msg  # the allowed range is stated
+
+
 @pytest.mark.parametrize("call", [
     lambda: GSEConfig(local_range=math.inf),  # its default: no limit
     lambda: DetectorConfig(confirm_completeness=None),  # `float | None`
@@ -116,6 +143,9 @@ def test_named_bad_values(call, needles):
     lambda: FixedViewsConfig(heights=(0.8, 0.5), lateral=(0.5,)),  # `tuple[float, ...]`: any length
     lambda: GraspSelectConfig(lift_heights=(0.05,)),
     lambda: FixedViewsConfig(heights=[0.8, 0.5], lateral=[0.0, 1.0]),  # lists (a TypeError before)
+    lambda: GraspExecConfig(contact_depth=1.0, contact_force=1e9),  # never counted as a collision
+    lambda: CertifyConfig(min_view_visibility=1.01),  # no view passes (tests/test_sim_certify.py)
+    lambda: TreeConfig(space_margin=-0.05, cone=math.pi),
 ])
 def test_valid_values_are_still_accepted(call):
     call()

@@ -110,7 +110,31 @@ def check_field_types(config, nonnegative_ints: bool = False) -> None:
                 kind_of = "whole numbers" if whole else "finite numbers"
                 what = (kind_of if "..." in ann else f"{fixed.size} {kind_of}" if fixed.ndim == 1
                         else f"{kind_of} nested as {fixed.shape}")
-                raise CompassInputError(f"{where}; use {what} like {tuple(fixed.tolist())}")
+                raise CompassInputError(f"{where}; use {what} like {_nested_tuple(fixed, whole)}")
+
+
+def check_ranges(config, **ranges: tuple[float, float, str]) -> None:
+    """Raise CompassInputError naming the first field of `config` outside its closed range,
+    given as `name=(lo, hi, unit)`; a (min, max) pair field must have lo <= min <= max <= hi.
+    None values (off) are not checked. Run after `check_field_types` (the values are numbers)."""
+    for fname, (lo, hi, unit) in ranges.items():
+        v = getattr(config, fname)
+        u = f" {unit}" if unit else ""
+        if v is None:
+            continue
+        if isinstance(v, (tuple, list)):
+            if not lo <= v[0] <= v[1] <= hi:
+                raise CompassInputError(f"{type(config).__name__}.{fname} = {tuple(v)}{u} is not allowed; use "
+                                        f"(min, max) with {lo:g} <= min <= max <= {hi:g}{u}")
+        elif not lo <= v <= hi:
+            raise CompassInputError(f"{type(config).__name__}.{fname} = {v}{u} is not allowed; use {lo:g}..{hi:g}{u}")
+
+
+def _nested_tuple(arr, whole: bool):
+    """An array as the nested tuple a user writes (ints when `whole`)."""
+    if arr.ndim == 0:
+        return int(arr) if whole else float(arr)
+    return tuple(_nested_tuple(a, whole) for a in arr)
 
 
 def _np():

@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import check_field_types
+from ..errors import check_field_types, check_ranges
 from ..mapping.distance import mark_in_spheres, mark_robot, unsafe_mask
 from ..mapping.distance_incremental import CappedDistance
 from ..mapping.frontiers import FrontierCluster, FrontierConfig, find_frontiers
@@ -81,6 +81,10 @@ class WorldModelConfig:
 
     def __post_init__(self) -> None:
         check_field_types(self, nonnegative_ints=True)
+        check_ranges(self, max_range=(0.05, 10.0, "m"), swept_margin=(0.0, 0.5, "m"),
+                     start_free_margin=(0.0, 0.5, "m"), start_body_margin=(0.0, 0.5, "m"),
+                     space_margin=(-0.5, 0.5, "m"), floor_margin=(0.0, 1.0, "m"), obstacle_halo=(0.0, 0.5, "m"),
+                     sweep_step=(1e-3, 1.0, "rad"))
 
 
 def outside_space_mask(occ: OccupancyMap, task, margin: float, floor_margin: float) -> np.ndarray:

@@ -19,7 +19,7 @@ from enum import Enum
 import mujoco
 import numpy as np
 
-from ..errors import CompassInputError, check_field_types
+from ..errors import CompassInputError, check_field_types, check_ranges
 from ..motion.timing import TimingConfig, time_parameterize
 from ..types import Trajectory
 from .executor import check_trajectory, interpolate
@@ -61,6 +61,7 @@ class GraspExecConfig:
 
     def __post_init__(self) -> None:
         check_field_types(self, nonnegative_ints=True)
+        check_ranges(self, close_time=(0.0, 60.0, "s"), hold_time=(0.0, 60.0, "s"), settle=(0.0, 60.0, "s"))
         for k in ("velocity_scale", "approach_scale"):
             v = getattr(self, k)
             if not 0.0 < v <= 1.0:

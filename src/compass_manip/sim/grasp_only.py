@@ -19,7 +19,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from ..errors import check_field_types
+from ..errors import check_field_types, check_ranges
 from ..exploration.wrist_sweep import wrist_sweep
 from ..geometry import look_at, make_T, rot_z
 from ..grasp.field import local_fine_map
@@ -85,6 +85,7 @@ class GraspOnlyConfig:
 
     def __post_init__(self) -> None:
         check_field_types(self, nonnegative_ints=True)
+        check_ranges(self, min_visibility=(0.0, 1.0, ""), carve_margin=(0.0, 0.2, "m"), fine_margin=(0.02, 0.5, "m"))
 
 
 @dataclass(frozen=True, eq=False)
