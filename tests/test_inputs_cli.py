@@ -142,3 +142,19 @@ def test_results_store_names_an_empty_file_and_a_row_with_bad_json(tmp_path, cap
     out = tmp_path / "report"
     _one_line_exit_2(["report", str(db), "--out", str(out)], capsys, "holds no valid JSON")
     assert not out.exists()
+
+
+def test_a_store_that_cannot_be_written_is_refused_for_a_sweep_but_read_for_a_report(tmp_path, monkeypatch):
+    """A read-only file (simulated with SQLite's read-only mode, which root cannot bypass):
+    `compass bench` used to run the first trial and then die with a traceback storing it."""
+    from compass_manip.bench import store as store_mod
+
+    db = tmp_path / "r.sqlite"
+    _store_with_a_row(db)
+    connect = sqlite3.connect
+    monkeypatch.setattr(store_mod.sqlite3, "connect",
+                        lambda path, **kw: connect(f"file:{path}?mode=ro", uri=True, **kw))
+    with pytest.raises(CompassInputError, match="cannot be written .*readonly"):
+        ResultsStore(str(db), create=True)
+    with ResultsStore(str(db)) as s:
+        assert [r.key for r in s.records()] == [("fv", 1, 0, 0, 0)]

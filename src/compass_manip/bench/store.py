@@ -132,6 +132,14 @@ class ResultsStore:
             raise CompassInputError(f"results store {self.path!r} was written by compass-manip {writer}, this is "
                                     f"{__version__}; results of two versions are not mixed: use a new --db")
         self.meta = meta
+        if for_writing:  # a sweep must be able to store its first trial, not fail after running it
+            try:
+                self._conn.execute("UPDATE meta SET value = value WHERE key = 'schema_version'")  # changes nothing
+                self._conn.rollback()
+            except sqlite3.Error as exc:
+                self._conn.close()
+                raise CompassInputError(f"results store {self.path!r} cannot be written ({exc}); give a file you "
+                                        "may write to, or a new --db") from None
 
     def close(self) -> None:
         self._conn.close()
