@@ -158,3 +158,23 @@ def test_a_store_that_cannot_be_written_is_refused_for_a_sweep_but_read_for_a_re
         ResultsStore(str(db), create=True)
     with ResultsStore(str(db)) as s:
         assert [r.key for r in s.records()] == [("fv", 1, 0, 0, 0)]
+
+
+@pytest.mark.parametrize("extra, needle", [
+    (["--video", "clip.avi"], "--video 'clip.avi' is not allowed"),
+    (["--record", "rec.mp4"], "--record 'rec.mp4' is not allowed"),
+])
+def test_a_bad_media_name_leaves_no_out_folder_behind(extra, needle, capsys, no_work, tmp_path):
+    out = tmp_path / "new"
+    _one_line_exit_2(RUN + ["--out", str(out), *extra], capsys, needle)
+    assert not out.exists()
+
+
+def test_run_sweep_refuses_a_trial_function_that_takes_no_spec(tmp_path):
+    from compass_manip.bench.runner import run_sweep
+
+    db = tmp_path / "r.sqlite"
+    for bad in (42, print.__self__, lambda: None):
+        with pytest.raises(CompassInputError, match="trial function"):
+            run_sweep(SweepConfig(methods=("fv",), scenes=1, trials=1), str(db), trial_fn=bad, progress=False)
+    assert not db.exists()

@@ -172,8 +172,16 @@ def test_trial_spec_is_checked_when_built(args, needle):
     _refused(lambda: runner.TrialSpec(*args), needle)
 
 
+def test_run_trial_refuses_a_progress_or_observer_it_cannot_call(monkeypatch):
+    monkeypatch.setattr(runner, "certified_scene", lambda *a, **k: (_ for _ in ()).throw(AssertionError("scene")))
+    spec = runner.TrialSpec("compass", 1, 0)
+    _refused(lambda: runner.run_trial(spec, progress="yes"), "progress = 'yes'")
+    _refused(lambda: runner.run_trial_full(spec, observer=object()), "observer object has no", "close")
+
+
 def test_certified_scene_refuses_a_config_that_is_not_a_certify_config(monkeypatch):
     monkeypatch.setattr(certify, "regenerate", lambda *a: (_ for _ in ()).throw(AssertionError("generated")))
     _refused(lambda: certify.certified_scene(1, 0, 0, config={"max_attempts": 3}, cache=False),
              "config must be a CertifyConfig")
     _refused(lambda: certify.certified_scene(1, 0, 0, config=dataclasses.replace), "CertifyConfig")
+    _refused(lambda: certify.certified_scene(1, 0, 0, cache="no"), "cache = 'no'", "True or False")

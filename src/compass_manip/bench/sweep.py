@@ -122,13 +122,13 @@ def resolve_trial_fn(name: str = REAL_TRIAL_FN) -> Callable:
         fn = getattr(importlib.import_module(module_name), attr)
     except (ImportError, AttributeError) as exc:
         raise CompassInputError(f"trial function {name!r} cannot be loaded ({exc})")
-    _check_takes_one_spec(fn, name)
+    check_trial_fn(fn, name)
     if fn is real_trial:
         _import_trial_runner()
     return fn
 
 
-def _check_takes_one_spec(fn, name: str) -> None:
+def check_trial_fn(fn, name: str) -> None:
     """CompassInputError unless `fn` is a function that can be called with one spec (else every
     trial of the sweep would be stored as a runner error and skipped on resume)."""
     if isinstance(fn, type) or not callable(fn):

@@ -41,10 +41,16 @@ def check_media_path(path: str | None, option: str, suffix: str) -> str | None:
     writable, the name must end in `suffix`), or None; one-line CompassInputError otherwise."""
     if path is None:
         return None
-    name = os.path.basename(os.fspath(path))
-    if not name.lower().endswith(suffix) or len(name) == len(suffix):
-        raise CompassInputError(f"{option} {path!r} is not allowed; give a file name ending in {suffix}")
+    check_media_name(path, option, suffix)
     return check_output_file(path, option)
+
+
+def check_media_name(path: str | None, option: str, suffix: str) -> None:
+    """One-line CompassInputError unless `path` is None or a file name ending in `suffix`
+    (more than the suffix alone). Touches nothing on disk."""
+    name = "" if path is None else os.path.basename(os.fspath(path))
+    if path is not None and (not name.lower().endswith(suffix) or len(name) == len(suffix)):
+        raise CompassInputError(f"{option} {path!r} is not allowed; give a file name ending in {suffix}")
 
 
 def run_checked_trial(command: str, spec_args: tuple, time_limit: float, out: str | None,
@@ -59,13 +65,15 @@ def run_checked_trial(command: str, spec_args: tuple, time_limit: float, out: st
     spec = check_spec(TrialSpec(*spec_args))
     if not 0 < time_limit <= 3600:
         raise CompassInputError(f"--time-limit {time_limit} s is not allowed; use 0 < limit <= 3600 s")
-    out = check_out(out)
-    video = check_media_path(video, "--video", ".mp4")
-    record = check_media_path(record, "--record", ".rrd")
+    check_media_name(video, "--video", ".mp4")  # what needs no disk first: a bad name leaves no --out folder
+    check_media_name(record, "--record", ".rrd")
     if record is not None:
         from ..viz.rerun_log import require_rerun
 
         require_rerun()
+    out = check_out(out)  # created here: demo's video lies in it
+    video = check_media_path(video, "--video", ".mp4")
+    record = check_media_path(record, "--record", ".rrd")
     from ..grasp.select import GraspSelectConfig
     from ..trial.config import GraspTrialConfig, TrialConfig
     from ..trial.observer import ObserverGroup

@@ -474,6 +474,9 @@ def certified_scene(level: int, index: int, seed: int = 0, config: CertifyConfig
     """
     level = check_level(level)
     config = instance_of(config, CertifyConfig, "config", CertifyConfig())
+    for name, flag in (("cache", cache), ("refresh", refresh)):
+        if not isinstance(flag, (bool, np.bool_)):
+            raise CompassInputError(f"{name} = {flag!r:.40} is not allowed; use True or False")
     if isinstance(index, bool) or not isinstance(index, (int, np.integer)) or index < 0:
         raise CompassInputError(f"scene index {index!r} is not allowed; use an integer >= 0")
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:

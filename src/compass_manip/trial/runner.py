@@ -33,7 +33,7 @@ from .inspect import plan_inspect_view
 from .verify import LookPlanner
 from .machine import MachineOutcome, TrialMachine
 from .metrics import MetricsRecorder
-from .observer import ObserverGroup
+from .observer import _EVENTS, ObserverGroup
 from .oracle_method import ORACLE_METHOD, make_oracle_method
 from .result import TrialFailure, TrialResult
 
@@ -101,6 +101,13 @@ def run_trial_full(spec: TrialSpec, config: TrialConfig | None = None, progress=
     recorder) is told of every event and closed at the end, also when the trial raises."""
     config = instance_of(config, TrialConfig, "config", TrialConfig())
     check_spec(spec)
+    if progress is not None and not callable(progress):
+        raise CompassInputError(f"progress = {progress!r:.40} is not allowed; use None or a function of one line")
+    missing = [] if observer is None else [e for e in (*sorted(_EVENTS), "close")
+                                           if not callable(getattr(observer, e, None))]
+    if missing:
+        raise CompassInputError(f"observer {type(observer).__name__} has no {', '.join(missing)}; use None or a "
+                                "trial.observer.TrialObserver")
     method_name = spec.method
     if spec.method == GRASP_ABLATION_METHOD:
         method_name = "compass"
