@@ -99,6 +99,9 @@ def test_a_value_of_the_wrong_kind_names_the_field(cls, name, kind):
     (lambda: CandidateConfig(depths=((0.01,),)), ("CandidateConfig.depths", "finite numbers like (0.0,)")),
     (lambda: WorldModelConfig(max_range=math.inf), ("WorldModelConfig.max_range",)),
     (lambda: GSEConfig(local_range=math.nan), ("GSEConfig.local_range",)),
+    (lambda: WorldModelConfig(near_base_box=((0.0, 0.0, 0.0), (1.0, 1.0))), ("WorldModelConfig.near_base_box",)),
+    (lambda: WorldModelConfig(near_base_box=((1.0, 0.0, 0.0), (0.0, 1.0, 1.0))), ("min < max",)),
+    (lambda: WorldModelConfig(near_base_box="base"), ("WorldModelConfig.near_base_box",)),
 ])
 def test_named_bad_values(call, needles):
     _refused(call, *needles)
@@ -122,6 +125,7 @@ OUT_OF_RANGE = [
     (CertifyConfig, "min_obstacle_removal", 1.5), (GraspExecConfig, "settle", -0.3),
     (GraspExecConfig, "hold_time", 1e12), (GraspOnlyConfig, "fine_margin", 0.0),
     (NearFieldScanConfig, "edge_step", 0.0), (NearFieldScanConfig, "max_range", -1.0),
+    (NFAConfig, "scan_resolution", 0.0), (GraspExecConfig, "min_width", 1.0),
 ]
 
 
@@ -146,6 +150,7 @@ def test_a_value_outside_its_range_names_the_field_and_the_range(cls, name, bad)
     lambda: GraspExecConfig(contact_depth=1.0, contact_force=1e9),  # never counted as a collision
     lambda: CertifyConfig(min_view_visibility=1.01),  # no view passes (tests/test_sim_certify.py)
     lambda: TreeConfig(space_margin=-0.05, cone=math.pi),
+    lambda: WorldModelConfig(near_base_box=((-0.35, -0.6, 0.0), (0.75, 0.6, 1.15))),
 ])
 def test_valid_values_are_still_accepted(call):
     call()

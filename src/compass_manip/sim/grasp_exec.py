@@ -61,7 +61,6 @@ class GraspExecConfig:
 
     def __post_init__(self) -> None:
         check_field_types(self, nonnegative_ints=True)
-        check_ranges(self, close_time=(0.0, 60.0, "s"), hold_time=(0.0, 60.0, "s"), settle=(0.0, 60.0, "s"))
         for k in ("velocity_scale", "approach_scale"):
             v = getattr(self, k)
             if not 0.0 < v <= 1.0:
@@ -71,6 +70,8 @@ class GraspExecConfig:
                 and self.min_width >= 0):
             raise CompassInputError("close_time > 0, hold_time >= 0, 0 < min_lift_fraction <= 1, check_every >= 1, "
                                     "contact_depth >= 0, contact_force >= 0 and min_width >= 0 are required")
+        check_ranges(self, close_time=(0.0, 60.0, "s"), hold_time=(0.0, 60.0, "s"), settle=(0.0, 60.0, "s"),
+                     min_width=(0.0, 0.08, "m"))  # huge contact_depth / contact_force: never counted
 
 
 @dataclass(frozen=True)
