@@ -10,6 +10,11 @@ import math
 import numbers
 
 
+#: The largest count a config takes (iterations, capacities, samples): larger ones would run or
+#: allocate without bound.
+MAX_COUNT = 10**8
+
+
 class CompassInputError(ValueError):
     """A value given by a user or a caller is outside what is allowed.
 
@@ -61,8 +66,8 @@ def instance_of(value, cls: type, name: str, default=None):
 
 def check_field_types(config, nonnegative_ints: bool = False) -> None:
     """Raise CompassInputError for a dataclass field whose value is not of its default's
-    kind: bool fields need True/False, int fields a whole number (>= 0 with
-    `nonnegative_ints`, unless the default is negative), float fields a real number (ints
+    kind: bool fields need True/False, int fields a whole number (0..MAX_COUNT
+    with `nonnegative_ints`, unless the default is negative), float fields a real number (ints
     accepted; finite, or the default's infinity), str fields a str, enum fields a member of
     the default's enum, config fields an instance of the default's class, number-tuple
     fields numbers of the default's nesting (finite, non-empty); a field annotated
@@ -83,8 +88,8 @@ def check_field_types(config, nonnegative_ints: bool = False) -> None:
         elif kind == "int":
             if isinstance(value, (bool, _np().bool_)) or not isinstance(value, numbers.Integral):
                 raise CompassInputError(f"{where}; use a whole number")
-            if nonnegative_ints and default >= 0 and value < 0:
-                raise CompassInputError(f"{where}; use a whole number >= 0")
+            if nonnegative_ints and default >= 0 and not 0 <= value <= MAX_COUNT:
+                raise CompassInputError(f"{where}; use a whole number 0..{MAX_COUNT:,}")
         elif kind == "float":
             if not (math.isinf(default) and _is_real(value) and value == default):  # inf only as the default
                 real_number(value, f"{name}.{fname}",
