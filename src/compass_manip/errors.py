@@ -5,8 +5,14 @@ and what is allowed.
 """
 from __future__ import annotations
 
+import functools
 import math
 import numbers
+
+
+#: The largest count a config takes (iterations, capacities, samples): larger ones would run or
+#: allocate without bound.
+MAX_COUNT = 10**8
 
 
 class CompassInputError(ValueError):
@@ -58,22 +64,137 @@ def instance_of(value, cls: type, name: str, default=None):
     return value
 
 
-def check_field_types(config) -> None:
+def check_field_types(config, nonnegative_ints: bool = False) -> None:
     """Raise CompassInputError for a dataclass field whose value is not of its default's
-    kind: bool fields need True/False, int fields a whole number, float fields a finite real
-    number (ints accepted). Fields without a bool/int/float default are not checked."""
+    kind: bool fields need True/False, int fields a whole number (0..MAX_COUNT
+    with `nonnegative_ints`, unless the default is negative), float fields a real number (ints
+    accepted; finite, or the default's infinity), str fields a str, enum fields a member of
+    the default's enum, config fields an instance of the default's class, number-tuple
+    fields numbers of the default's nesting (finite, non-empty); a field annotated
+    `... | None` may also be None (`float | None` / `int | None` defaulting to None: a
+    number or None). Fields whose default is None, or whose default (or
+    default_factory's value) is of no kind above, are not checked."""
     import dataclasses
+
+    name = type(config).__name__
+    for fname, kind, default, optional in _field_kinds(type(config)):
+        value = getattr(config, fname)
+        if value is None and optional:
+            continue
+        where = f"{name}.{fname} = {value!r:.40} is not allowed"
+        if kind == "bool":
+            if not isinstance(value, (bool, _np().bool_)):
+                raise CompassInputError(f"{where}; use True or False")
+        elif kind == "int":
+            if isinstance(value, (bool, _np().bool_)) or not isinstance(value, numbers.Integral):
+                raise CompassInputError(f"{where}; use a whole number")
+            if nonnegative_ints and default >= 0 and not 0 <= value <= MAX_COUNT:
+                raise CompassInputError(f"{where}; use a whole number 0..{MAX_COUNT:,}")
+        elif kind == "float":
+            if not (math.isinf(default) and _is_real(value) and value == default):  # inf only as the default
+                real_number(value, f"{name}.{fname}",
+                            "a finite number" + (f" or {default}" if math.isinf(default) else ""))
+        elif kind == "str":
+            if not isinstance(value, str):
+                raise CompassInputError(f"{where}; use a str such as {default!r}")
+        elif kind in ("enum", "config"):
+            if not isinstance(value, type(default)):
+                allowed = (", ".join(repr(m.name) for m in type(default)) if kind == "enum"
+                           else f"a {type(default).__name__}")
+                raise CompassInputError(f"{name}.{fname} = {value!r:.40} is not allowed; use {allowed}")
+        elif kind == "numbers":
+            arr = None
+            if not isinstance(value, (str, bytes)) and not dataclasses.is_dataclass(value):
+                try:
+                    arr = _np().asarray(value, dtype=float)
+                except (TypeError, ValueError, OverflowError):
+                    pass
+            fixed, ann, whole = default  # a fixed shape unless annotated `tuple[X, ...]`; whole: `tuple[int, ...]`
+            if (arr is None or arr.ndim != fixed.ndim or arr.size == 0 or not _np().isfinite(arr).all()
+                    or ("..." not in ann and arr.shape != fixed.shape) or (whole and (arr != _np().round(arr)).any())):
+                kind_of = "whole numbers" if whole else "finite numbers"
+                what = (kind_of if "..." in ann else f"{fixed.size} {kind_of}" if fixed.ndim == 1
+                        else f"{kind_of} nested as {fixed.shape}")
+                raise CompassInputError(f"{where}; use {what} like {_nested_tuple(fixed, whole)}")
+
+
+def check_ranges(config, **ranges: tuple[float, float, str]) -> None:
+    """Raise CompassInputError naming the first field of `config` outside its closed range,
+    given as `name=(lo, hi, unit)`; a (min, max) pair field must have lo <= min <= max <= hi.
+    None values (off) are not checked. Run after `check_field_types` (the values are numbers)."""
+    for fname, (lo, hi, unit) in ranges.items():
+        v = getattr(config, fname)
+        u = f" {unit}" if unit else ""
+        if v is None:
+            continue
+        if isinstance(v, (tuple, list)):
+            if not lo <= v[0] <= v[1] <= hi:
+                raise CompassInputError(f"{type(config).__name__}.{fname} = {tuple(v)}{u} is not allowed; use "
+                                        f"(min, max) with {lo:g} <= min <= max <= {hi:g}{u}")
+        elif not lo <= v <= hi:
+            raise CompassInputError(f"{type(config).__name__}.{fname} = {v}{u} is not allowed; use {lo:g}..{hi:g}{u}")
+
+
+def _nested_tuple(arr, whole: bool):
+    """An array as the nested tuple a user writes (ints when `whole`)."""
+    if arr.ndim == 0:
+        return int(arr) if whole else float(arr)
+    return tuple(_nested_tuple(a, whole) for a in arr)
+
+
+def _np():
+    import numpy as np
+
+    return np
+
+
+def _is_real(value) -> bool:
+    return isinstance(value, numbers.Real) and not isinstance(value, (bool, _np().bool_))
+
+
+@functools.lru_cache(maxsize=None)
+def _field_kinds(cls) -> tuple:
+    """(field name, kind, default, None allowed) of each checked init field of the dataclass
+    `cls` (None is allowed when the annotation names it: `float | None`, `Optional[...]`)."""
+    import dataclasses
+    import enum
 
     import numpy as np
 
-    name = type(config).__name__
-    for f in dataclasses.fields(config):
-        default, value = f.default, getattr(config, f.name)
+    out = []
+    for f in dataclasses.fields(cls):
+        if not f.init:
+            continue
+        if f.default is not dataclasses.MISSING:
+            default = f.default
+        elif f.default_factory is not dataclasses.MISSING:
+            default = f.default_factory()
+        else:
+            continue
+        optional = "None" in str(f.type) or "Optional" in str(f.type)
+        if default is None and str(f.type) in ("float | None", "int | None"):  # a number, or None: off
+            default = 0.0 if str(f.type).startswith("float") else 0
+        kind = None
         if isinstance(default, bool):
-            if not isinstance(value, (bool, np.bool_)):
-                raise CompassInputError(f"{name}.{f.name} = {value!r:.40} is not allowed; use True or False")
+            kind = "bool"
         elif isinstance(default, int):
-            if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
-                raise CompassInputError(f"{name}.{f.name} = {value!r:.40} is not allowed; use a whole number")
+            kind = "int"
         elif isinstance(default, float):
-            real_number(value, f"{name}.{f.name}")
+            kind = "float"
+        elif isinstance(default, str):
+            kind = "str"
+        elif isinstance(default, enum.Enum):
+            kind = "enum"
+        elif dataclasses.is_dataclass(default):
+            kind = "config"
+        elif isinstance(default, tuple) and default:
+            try:
+                arr = np.asarray(default, dtype=np.float64)
+            except (TypeError, ValueError):
+                continue
+            if np.isfinite(arr).all():
+                ann = str(f.type)
+                kind, default = "numbers", (arr, ann, "int" in ann and "float" not in ann)
+        if kind is not None:
+            out.append((f.name, kind, default, optional))
+    return tuple(out)

@@ -18,7 +18,7 @@ from typing import Callable
 from ..errors import CompassInputError
 from .pool import Outcome, run_local
 from .store import ResultsStore, TrialRecord
-from .sweep import REAL_TRIAL_FN, SweepConfig, resolve_trial_fn, validate
+from .sweep import REAL_TRIAL_FN, SweepConfig, check_trial_fn, resolve_trial_fn, validate
 
 
 @dataclass(frozen=True)
@@ -74,6 +74,8 @@ def run_sweep(config: SweepConfig, db: str, trial_fn: Callable | None = None, pr
         from .ray_pool import import_ray  # noqa: PLC0415 (optional extra)
 
         import_ray()
+    if trial_fn is not None:
+        check_trial_fn(trial_fn, repr(trial_fn))
     fn = resolve_trial_fn(REAL_TRIAL_FN) if trial_fn is None else trial_fn
     name = trial_fn_name(fn)
     own_store = store is None

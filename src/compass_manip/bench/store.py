@@ -80,10 +80,14 @@ class ResultsStore:
     """A results file opened for reading (`create=False`) or for a sweep (`create=True`)."""
 
     def __init__(self, path: str, create: bool = False):
+        if not isinstance(path, (str, os.PathLike)) or os.fspath(path) in ("", ":memory:"):
+            raise CompassInputError(f"results store {path!r:.60} is not allowed; give a .sqlite file path")
+        path = os.fspath(path)
         self.path = path
         exists = os.path.exists(path) and os.path.getsize(path) > 0
         if not exists and not create:
-            raise CompassInputError(f"results store {path!r} does not exist; give a file written by compass bench")
+            what = "is empty" if os.path.isfile(path) else "does not exist"
+            raise CompassInputError(f"results store {path!r} {what}; give a file written by compass bench")
         if os.path.isdir(path):
             raise CompassInputError(f"results store {path!r} is a directory; give a .sqlite file path")
         parent = os.path.dirname(os.path.abspath(path))
@@ -128,6 +132,14 @@ class ResultsStore:
             raise CompassInputError(f"results store {self.path!r} was written by compass-manip {writer}, this is "
                                     f"{__version__}; results of two versions are not mixed: use a new --db")
         self.meta = meta
+        if for_writing:  # a sweep must be able to store its first trial, not fail after running it
+            try:
+                self._conn.execute("UPDATE meta SET value = value WHERE key = 'schema_version'")  # changes nothing
+                self._conn.rollback()
+            except sqlite3.Error as exc:
+                self._conn.close()
+                raise CompassInputError(f"results store {self.path!r} cannot be written ({exc}); give a file you "
+                                        "may write to, or a new --db") from None
 
     def close(self) -> None:
         self._conn.close()
@@ -161,11 +173,17 @@ class ResultsStore:
         out = []
         for r in rows:
             d = dict(zip(_COLUMNS, r))
+            try:
+                config = None if d["config_json"] is None else json.loads(d["config_json"])
+                result = None if d["result_json"] is None else json.loads(d["result_json"])
+            except (TypeError, ValueError) as exc:  # edited or damaged by hand: name the row
+                key = tuple(d[k] for k in _COLUMNS[:5])
+                raise CompassInputError(f"results store {self.path!r}: trial {key} holds no valid JSON ({exc}); "
+                                        "delete that row or use a file written by compass bench") from None
             out.append(TrialRecord(
                 method=d["method"], level=d["level"], scene=d["scene"], trial=d["trial"], seed=d["seed"],
                 success=bool(d["success"]), failure=d["failure"], error=d["error"], trial_fn=d["trial_fn"],
-                config=None if d["config_json"] is None else json.loads(d["config_json"]),
-                result=None if d["result_json"] is None else json.loads(d["result_json"]),
+                config=config, result=result,
                 wall_s=d["wall_s"], code_version=d["code_version"], finished_at=d["finished_at"]))
         return out
 

@@ -10,12 +10,15 @@ from __future__ import annotations
 
 import enum
 import importlib
+import inspect
 from dataclasses import dataclass
 from typing import Callable
 
 from ..errors import CompassInputError
 
 LEVELS = (1, 2, 3, 4)
+#: The longest wall-time cap per trial [s] (a week).
+MAX_WALL_CAP_S = 7 * 24 * 3600.0
 #: The trial function used when none is given ("module:name").
 REAL_TRIAL_FN = "compass_manip.bench.sweep:real_trial"
 
@@ -105,8 +108,9 @@ def validate(config: SweepConfig, methods: list[str] | None = None) -> None:
         raise CompassInputError(f"seed {config.seed} is not allowed; use 0 <= seed < 2**63")
     if not 1 <= config.workers <= 1024:
         raise CompassInputError(f"workers {config.workers} is not allowed; use 1..1024")
-    if not config.wall_cap_s > 0:
-        raise CompassInputError(f"wall-time cap {config.wall_cap_s} s is not allowed; use a positive number")
+    if not 0 < config.wall_cap_s <= MAX_WALL_CAP_S:  # nan and inf too: the pool waits with a finite timeout
+        raise CompassInputError(f"wall-time cap {config.wall_cap_s} s is not allowed; use a positive number of "
+                                f"seconds up to {MAX_WALL_CAP_S:.0f} (a week)")
 
 
 def resolve_trial_fn(name: str = REAL_TRIAL_FN) -> Callable:
@@ -118,9 +122,25 @@ def resolve_trial_fn(name: str = REAL_TRIAL_FN) -> Callable:
         fn = getattr(importlib.import_module(module_name), attr)
     except (ImportError, AttributeError) as exc:
         raise CompassInputError(f"trial function {name!r} cannot be loaded ({exc})")
+    check_trial_fn(fn, name)
     if fn is real_trial:
         _import_trial_runner()
     return fn
+
+
+def check_trial_fn(fn, name: str) -> None:
+    """CompassInputError unless `fn` is a function that can be called with one spec (else every
+    trial of the sweep would be stored as a runner error and skipped on resume)."""
+    if isinstance(fn, type) or not callable(fn):
+        raise CompassInputError(f"trial function {name!r} is a {type(fn).__name__}, not a function; "
+                                "give a function of one spec returning (config dict, result dict)")
+    try:
+        inspect.signature(fn).bind(Spec("compass", 1, 0))
+    except TypeError as exc:
+        raise CompassInputError(f"trial function {name!r} cannot take one spec ({exc}); "
+                                "give a function of one spec returning (config dict, result dict)") from None
+    except ValueError:  # no signature to read (some builtins): the first trial will tell
+        pass
 
 
 def _import_trial_runner():

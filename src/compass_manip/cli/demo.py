@@ -12,6 +12,8 @@ import argparse
 import json
 import os
 
+from ..errors import CompassInputError
+
 
 HELP = "run one COMPASS trial on a certified scene and write its outputs"
 
@@ -32,6 +34,8 @@ def add_arguments(p) -> None:
 def run(args) -> int:
     from .run import run_checked_trial, save_trial
 
+    if not 0 <= args.index < 2**63:  # named as the user gave it (the trial's spec calls it the scene)
+        raise CompassInputError(f"--index {args.index} is not allowed; use a scene index 0 <= index < 2**63")
     video = os.path.join(args.out, "trial.mp4") if args.video and args.out else None
     result_run, config, out = run_checked_trial(
         "demo", (args.method, args.level, args.index, args.trial, args.seed), args.time_limit, args.out, video=video)

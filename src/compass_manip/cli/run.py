@@ -12,13 +12,13 @@ HELP = "run one trial (find, then grasp) of an exploration method and print its 
 
 
 def add_arguments(p) -> None:
-    p.add_argument("--method", default="compass", help="registered method (default compass)")
+    p.add_argument("--method", default=None, help="registered method (default compass)")
     p.add_argument("--level", type=int, required=True, help="difficulty level 1..4")
     p.add_argument("--scene", type=int, required=True, help="scene index >= 0")
     p.add_argument("--seed", type=int, default=0, help="base seed of the scene set (default 0)")
     p.add_argument("--trial", type=int, default=0, help="trial index >= 0 (its own random stream)")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of a table")
-    p.add_argument("--time-limit", type=float, default=200.0, help="simulated time limit [s] (default 200)")
+    p.add_argument("--time-limit", type=float, default=None, help="simulated time limit [s] (default 200)")
     p.add_argument("--out", default=None, help="folder for result.json and the PNGs")
     p.add_argument("--video", default=None, metavar="PATH.mp4",
                    help="write an MP4 of the trial on the simulated timeline (10 frames per simulated second)")
@@ -41,9 +41,16 @@ def check_media_path(path: str | None, option: str, suffix: str) -> str | None:
     writable, the name must end in `suffix`), or None; one-line CompassInputError otherwise."""
     if path is None:
         return None
-    if not os.fspath(path).lower().endswith(suffix):
-        raise CompassInputError(f"{option} {path!r} is not allowed; give a file name ending in {suffix}")
+    check_media_name(path, option, suffix)
     return check_output_file(path, option)
+
+
+def check_media_name(path: str | None, option: str, suffix: str) -> None:
+    """One-line CompassInputError unless `path` is None or a file name ending in `suffix`
+    (more than the suffix alone). Touches nothing on disk."""
+    name = "" if path is None else os.path.basename(os.fspath(path))
+    if path is not None and (not name.lower().endswith(suffix) or len(name) == len(suffix)):
+        raise CompassInputError(f"{option} {path!r} is not allowed; give a file name ending in {suffix}")
 
 
 def run_checked_trial(command: str, spec_args: tuple, time_limit: float, out: str | None,
@@ -58,13 +65,15 @@ def run_checked_trial(command: str, spec_args: tuple, time_limit: float, out: st
     spec = check_spec(TrialSpec(*spec_args))
     if not 0 < time_limit <= 3600:
         raise CompassInputError(f"--time-limit {time_limit} s is not allowed; use 0 < limit <= 3600 s")
-    out = check_out(out)
-    video = check_media_path(video, "--video", ".mp4")
-    record = check_media_path(record, "--record", ".rrd")
+    check_media_name(video, "--video", ".mp4")  # what needs no disk first: a bad name leaves no --out folder
+    check_media_name(record, "--record", ".rrd")
     if record is not None:
         from ..viz.rerun_log import require_rerun
 
         require_rerun()
+    out = check_out(out)  # created here: demo's video lies in it
+    video = check_media_path(video, "--video", ".mp4")
+    record = check_media_path(record, "--record", ".rrd")
     from ..grasp.select import GraspSelectConfig
     from ..trial.config import GraspTrialConfig, TrialConfig
     from ..trial.observer import ObserverGroup
@@ -101,8 +110,14 @@ def run_grasp_only(args) -> int:
     from ..sim.levels import check_level
     from ..trial.runner import TrialSpec, check_spec
 
-    if args.find_only or args.out is not None:
-        raise CompassInputError("--grasp-only takes neither --find-only nor --out")
+    given = [opt for opt, used in (("--find-only", args.find_only), ("--out", args.out is not None),
+                                   ("--method", args.method not in (None, "compass")),
+                                   ("--time-limit", args.time_limit is not None), ("--video", args.video is not None),
+                                   ("--record", args.record is not None)) if used]
+    if given:
+        raise CompassInputError(f"--grasp-only does not take {', '.join(given)}; it runs COMPASS's grasp alone "
+                                "from an oracle view (allowed with it: --level --scene --seed --trial --json "
+                                "--unconstrained)")
     check_level(args.level)
     spec = check_spec(TrialSpec("compass", args.level, args.scene, args.trial, args.seed))
     scene = certified_scene(spec.level, spec.scene, spec.seed).scene
@@ -122,8 +137,13 @@ def run_grasp_only(args) -> int:
 def run(args) -> int:
     if args.grasp_only:
         return run_grasp_only(args)
+    if args.find_only and args.unconstrained:
+        raise CompassInputError("--unconstrained changes the grasp selection, which --find-only skips; "
+                                "give one of them")
+    method = "compass" if args.method is None else args.method
+    time_limit = 200.0 if args.time_limit is None else args.time_limit
     result_run, config, out = run_checked_trial(
-        "run", (args.method, args.level, args.scene, args.trial, args.seed), args.time_limit, args.out,
+        "run", (method, args.level, args.scene, args.trial, args.seed), time_limit, args.out,
         video=args.video, record=args.record,
         find_only=args.find_only, constrained=not args.unconstrained)
     record = result_run.result.to_dict()

@@ -67,8 +67,8 @@ def run(args) -> int:
     if args.seed < 0 or args.seed >= 2**63:
         raise CompassInputError(f"--seed {args.seed} is not allowed; use 0 <= seed < 2**63")
 
-    if args.out:
-        args.out = check_output_dir(args.out)  # before any work
+    if args.out is not None:
+        args.out = check_output_dir(args.out)  # before any work (an empty --out is refused, not ignored)
 
     from tqdm import tqdm
 

@@ -17,6 +17,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from ..errors import check_field_types
 from ..mapping.occupancy import OccupancyMap
 from ..motion.planner import DEFAULT_MAX_CHECKS, PlannerConfig, plan
 from ..robot.ik import PandaIK
@@ -37,6 +38,9 @@ class ViewPlanningConfig:
 
     planner: PlannerConfig = field(default_factory=lambda: PlannerConfig(max_checks=2 * DEFAULT_MAX_CHECKS))
     max_goals: int = 4
+
+    def __post_init__(self) -> None:
+        check_field_types(self, nonnegative_ints=True)
 
 
 class MapMethod:

@@ -12,6 +12,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from ..errors import check_field_types, check_ranges
 from ..robot.ik import PandaIK
 from ..robot.model import RobotConfig
 from ..task import Task
@@ -49,6 +50,11 @@ class CompassConfig:
     hint_memory: int = 20
     escape: EscapeConfig = field(default_factory=EscapeConfig)
     near_field_unsafe: bool = True
+
+    def __post_init__(self) -> None:
+        check_field_types(self, nonnegative_ints=True)
+        check_ranges(self, verify_resolution=(1e-4, 0.5, "rad"), prior_inset=(-0.5, 0.5, "m"),
+                     max_attempts=(1, 1000, ""), retry_iterations_factor=(1, 100, ""))
 
 
 def near_field_world(config: CompassConfig) -> WorldModelConfig:

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import CompassInputError
+from ..errors import CompassInputError, check_field_types, check_ranges
 from ..robot.model import Q_MAX, Q_MIN
 from .base import Decision, Phase
 
@@ -40,6 +40,8 @@ class EscapeConfig:
     max_approach: float = 0.005
 
     def __post_init__(self) -> None:
+        check_field_types(self, nonnegative_ints=True)
+        check_ranges(self, radius=(0.0, 6.3, "rad"), resolution=(1e-4, 0.5, "rad"), max_approach=(0.0, 0.5, "m"))
         if self.samples < 1 or not 0 < self.tolerance < self.radius:
             raise CompassInputError(f"EscapeConfig needs samples >= 1 and 0 < tolerance {self.tolerance} < "
                                     f"radius {self.radius}")

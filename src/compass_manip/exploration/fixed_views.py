@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import CompassInputError
+from ..errors import CompassInputError, check_field_types, check_ranges
 from ..robot.ik import PandaIK
 from ..task import Task
 from .base import Decision, Phase, StopReason
@@ -58,7 +58,10 @@ class FixedViewsConfig:
     planning: ViewPlanningConfig = field(default_factory=ViewPlanningConfig)
 
     def __post_init__(self) -> None:
-        fr = np.asarray(self.heights + self.lateral, float)
+        check_field_types(self, nonnegative_ints=True)
+        check_ranges(self, standoff=(-1.0, 2.0, "m"), rise=(-1.0, 1.0, "m"),
+                     cross=(-2.0, 2.0, ""), ik_q7=(1, 1000, ""), ik_solutions=(1, 100, ""))
+        fr = np.asarray((*self.heights, *self.lateral), float)  # lists too
         if len(self.heights) == 0 or len(self.lateral) == 0 or np.any((fr < 0) | (fr > 1)):
             raise CompassInputError("heights and lateral must be non-empty fractions in [0, 1]")
         if not 0.0 <= self.depth <= 1.0:

@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import CompassInputError
+from ..errors import CompassInputError, check_field_types, check_ranges
 from ..task import Task
 from .base import Decision, Phase, StopReason
 from .baseline_common import MapMethod, ViewPlanningConfig, interior_box, plan_to, timed
@@ -58,6 +58,10 @@ class GreedyIGConfig:
     planning: ViewPlanningConfig = field(default_factory=ViewPlanningConfig)
 
     def __post_init__(self) -> None:
+        check_field_types(self, nonnegative_ints=True)
+        check_ranges(self, radius=(0.0, 5.0, "m"), cone=(0.0, 3.1416, "rad"), max_range=(0.05, 10.0, "m"),
+                     roi_margin=(-0.5, 0.5, "m"), p_unknown=(1e-6, 1 - 1e-6, ""), min_information=(0.0, 1e9, ""),
+                     min_view_change=(0.0, 10.0, ""), ik_q7=(1, 1000, ""), ik_solutions=(1, 100, ""))
         if self.n_views < 1 or self.max_attempts < 1:
             raise CompassInputError("GreedyIGConfig needs n_views >= 1 and max_attempts >= 1")
         if not 0 < self.radius[0] <= self.radius[1]:

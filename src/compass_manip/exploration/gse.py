@@ -29,7 +29,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ..errors import CompassInputError
+from ..errors import CompassInputError, check_field_types, check_ranges
 from ..mapping.infogain import info_gain_batch
 from ..motion.tree import JointTree
 from ..robot.model import Q_MAX, Q_MIN
@@ -80,6 +80,12 @@ class GSEConfig:
     planning: ViewPlanningConfig = field(default_factory=ViewPlanningConfig)
 
     def __post_init__(self) -> None:
+        check_field_types(self, nonnegative_ints=True)
+        check_ranges(self, step=(1e-3, 3.2, "rad"), res=(1e-4, 0.5, "rad"), gain_range=(1e-3, 10.0, "m"),
+                     roi_margin=(-0.5, 0.5, "m"), path_lambda=(0.0, 1e3, "1/rad"), min_view_change=(0.0, 10.0, ""),
+                     verify_resolution=(1e-4, 0.5, "rad"), global_distance=(0.0, 5.0, "m"),
+                     global_cone=(0.0, 3.1416, "rad"), global_margin=(-0.5, 1.0, "m"), max_attempts=(1, 1000, ""),
+                     retry_iterations_factor=(1, 100, ""), ik_q7=(1, 1000, ""), ik_solutions=(1, 100, ""))
         if self.iterations < 1 or self.capacity < 2 or self.step <= 0 or self.local_range <= 0:
             raise CompassInputError("GSEConfig needs iterations >= 1, capacity >= 2, step > 0, local_range > 0")
         if self.path_lambda < 0:

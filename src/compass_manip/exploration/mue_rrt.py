@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import CompassInputError
+from ..errors import CompassInputError, check_field_types, check_ranges
 from ..mapping.infogain import info_gain_batch
 from ..motion.tree import JointTree
 from ..robot.model import Q_MAX, Q_MIN
@@ -62,6 +62,11 @@ class TreeConfig:
     space_margin: float = -0.01
 
     def __post_init__(self) -> None:
+        check_field_types(self, nonnegative_ints=True)
+        check_ranges(self, step=(1e-3, 3.2, "rad"), res=(1e-4, 0.5, "rad"), local_range=(1e-3, 10.0, "rad"),
+                     cone=(0.0, 3.1416, "rad"), gain_range=(1e-3, 10.0, "m"), min_view_change=(0.0, 10.0, ""),
+                     space_margin=(-0.5, 0.5, "m"), view_distance=(0.0, 5.0, "m"), ik_q7=(1, 1000, ""),
+                     ik_solutions=(1, 100, ""))
         if not (0 <= self.p_frontier and 0 <= self.p_prior and 0 <= self.p_hint
                 and self.p_frontier + max(self.p_prior, self.p_hint) <= 1):
             raise CompassInputError(
@@ -82,6 +87,11 @@ class UtilityWeights:
 
     def as_tuple(self) -> tuple[float, float, float, float]:
         return (self.gain, self.momentum, self.manipulability, self.heuristic)
+
+    def __post_init__(self) -> None:
+        check_field_types(self, nonnegative_ints=True)
+        check_ranges(self, gain=(0.0, 1e3, ""), momentum=(0.0, 1e3, ""), manipulability=(0.0, 1e3, ""),
+                     heuristic=(0.0, 1e3, ""), cost_offset=(1e-6, 1e3, "rad"))
 
 
 @dataclass(frozen=True, eq=False)

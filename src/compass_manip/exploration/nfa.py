@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import CompassInputError
+from ..errors import CompassInputError, check_field_types, check_ranges
 from ..mapping.infogain import info_gain_batch
 from ..mapping.occupancy import OccupancyMap, VoxelState
 from ..robot.model import Q_MAX, Q_MIN
@@ -58,6 +58,10 @@ class NFAConfig:
     scan_resolution: float = 0.02
 
     def __post_init__(self) -> None:
+        check_field_types(self, nonnegative_ints=True)
+        check_ranges(self, wrist_range=(0.0, 6.3, "rad"), max_range=(0.05, 10.0, "m"),
+                     edge_resolution=(1e-4, 0.5, "rad"), min_motion=(0.0, 3.2, "rad"), backoff=(0.0, 3.2, "rad"),
+                     scan_resolution=(1e-4, 0.5, "rad"))
         if self.n_candidates < 1 or self.max_views < 0 or self.min_gain < 0:
             raise CompassInputError("NFAConfig needs n_candidates >= 1, max_views >= 0, min_gain >= 0")
         if not np.all(np.asarray(self.safe_box_max) > np.asarray(self.safe_box_min)):

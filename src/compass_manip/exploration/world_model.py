@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..errors import CompassInputError, check_field_types, check_ranges
 from ..mapping.distance import mark_in_spheres, mark_robot, unsafe_mask
 from ..mapping.distance_incremental import CappedDistance
 from ..mapping.frontiers import FrontierCluster, FrontierConfig, find_frontiers
@@ -77,6 +78,23 @@ class WorldModelConfig:
     sweep_step: float = 0.05
     validity: ValidityConfig = field(default_factory=lambda: ValidityConfig(margin=0.005, edge_resolution=0.02))
     frontiers: FrontierConfig = field(default_factory=lambda: FrontierConfig(min_cluster_size=4))
+
+    def __post_init__(self) -> None:
+        check_field_types(self, nonnegative_ints=True)
+        check_ranges(self, max_range=(0.05, 10.0, "m"), swept_margin=(0.0, 0.5, "m"),
+                     start_free_margin=(0.0, 0.5, "m"), start_body_margin=(0.0, 0.5, "m"),
+                     space_margin=(-0.5, 0.5, "m"), floor_margin=(0.0, 1.0, "m"), obstacle_halo=(0.0, 0.5, "m"),
+                     sweep_step=(1e-3, 1.0, "rad"))
+        box = None
+        if self.near_base_box is not None and not isinstance(self.near_base_box, (str, bytes)):
+            try:
+                box = np.asarray(self.near_base_box, dtype=float)
+            except (TypeError, ValueError):
+                box = None
+        if self.near_base_box is not None and (box is None or box.shape != (2, 3) or not np.isfinite(box).all()
+                                               or not (box[0] < box[1]).all()):
+            raise CompassInputError(f"WorldModelConfig.near_base_box = {self.near_base_box!r:.60} is not allowed; "
+                                    "use None or ((x, y, z) min, (x, y, z) max) [m] with min < max")
 
 
 def outside_space_mask(occ: OccupancyMap, task, margin: float, floor_margin: float) -> np.ndarray:

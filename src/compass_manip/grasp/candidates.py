@@ -21,7 +21,7 @@ from typing import Protocol
 import numpy as np
 from numba import njit, prange
 
-from ..errors import CompassInputError
+from ..errors import CompassInputError, check_field_types, check_ranges
 from ..robot.model import GRIPPER_MAX_WIDTH
 from .hand_volume import PAD_BACK, PAD_TIP, depth_keep, palm_clear
 from .quality import graspnet_score, graspnet_score_cones
@@ -82,6 +82,8 @@ class CandidateConfig:
     opening_all: bool = False
 
     def __post_init__(self) -> None:
+        check_field_types(self, nonnegative_ints=True)
+        check_ranges(self, line_radius=(0.0, 0.1, "m"))
         if not self.depths or any(not 0.0 <= d <= PAD_BACK - 0.005 for d in self.depths):
             raise CompassInputError(f"depths {self.depths} m are not allowed; give at least one in "
                                     f"0..{PAD_BACK - 0.005:.3f} m (the contacts must stay on the pads)")

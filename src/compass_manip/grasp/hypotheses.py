@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import CompassInputError
+from ..errors import CompassInputError, check_field_types, check_ranges
 from ..mapping.distance import voxels_in_spheres
 from ..mapping.occupancy import OccupancyMap, VoxelState
 from ..robot.ik import PandaIK
@@ -48,6 +48,8 @@ class HypothesisConfig:
     min_turn: float = 0.26
 
     def __post_init__(self) -> None:
+        check_field_types(self, nonnegative_ints=True)
+        check_ranges(self, min_separation=(0.0, 1.0, "m"), min_turn=(0.0, 3.1416, "rad"))
         if not 1 <= self.n_hypotheses <= 200 or not 1 <= self.max_checked <= 10000:
             raise CompassInputError(f"n_hypotheses {self.n_hypotheses} / max_checked {self.max_checked} not "
                                     "allowed; use 1..200 and 1..10000")

@@ -28,7 +28,7 @@ from enum import Enum
 
 import numpy as np
 
-from ..errors import CompassInputError
+from ..errors import CompassInputError, check_field_types, check_ranges
 from ..mapping.distance import DistanceField
 from ..mapping.occupancy import OccupancyMap, VoxelState
 from ..motion.planner import DEFAULT_MAX_CHECKS, PlannerConfig, PlanResult, plan
@@ -122,6 +122,9 @@ class GraspSelectConfig:
     planner: PlannerConfig = field(default_factory=lambda: PlannerConfig(max_checks=SELECT_MAX_CHECKS))
 
     def __post_init__(self) -> None:
+        check_field_types(self, nonnegative_ints=True)
+        check_ranges(self, robot_clearance=(0.0, 0.2, "m"), max_joint_step=(1e-3, 6.3, "rad"),
+                     plan_margin=(0.0, 0.1, "m"))
         if not 0.0 < self.max_approach_angle <= math.pi:
             raise CompassInputError(f"max_approach_angle {self.max_approach_angle} rad is not allowed; use (0, pi]")
         if not self.pregrasp_distances or not all(0.02 <= d <= 0.3 for d in self.pregrasp_distances):

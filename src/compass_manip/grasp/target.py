@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
-from ..errors import CompassInputError
+from ..errors import CompassInputError, check_field_types
 from ..mapping.occupancy import OccupancyMap, VoxelState
 from ..task import TargetQuery
 
@@ -47,6 +47,7 @@ class TargetConfig:
     slice: float = 0.01
 
     def __post_init__(self) -> None:
+        check_field_types(self, nonnegative_ints=True)
         if not 0.0005 <= self.voxel <= 0.05:
             raise CompassInputError(f"TargetConfig.voxel = {self.voxel} m is not allowed; use 0.0005..0.05 m")
         if not 4 <= self.normal_k <= 100:

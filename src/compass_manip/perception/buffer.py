@@ -34,7 +34,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import CompassInputError
+from ..errors import CompassInputError, check_field_types
 from ..task import TargetQuery
 from ..types import Observation
 from .confirm import Confirmer, ConfirmConfig
@@ -55,6 +55,7 @@ class BufferConfig:
     confirm: ConfirmConfig = field(default_factory=ConfirmConfig)
 
     def __post_init__(self) -> None:
+        check_field_types(self, nonnegative_ints=True)
         if not 1 <= self.size <= 1000:
             raise CompassInputError(f"buffer size {self.size} is not allowed; use 1..1000")
         if not (isinstance(self.min_period_s, (int, float)) and 0.0 <= self.min_period_s <= 10.0):

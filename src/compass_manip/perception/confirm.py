@@ -53,7 +53,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from scipy.spatial import cKDTree
 
-from ..errors import CompassInputError
+from ..errors import CompassInputError, check_field_types
 from ..task import TargetQuery
 from .detector import Detection, Verdict, exceeds_size
 from .target import upright_extents
@@ -81,6 +81,7 @@ class ConfirmConfig:
     max_points: int = 3000
 
     def __post_init__(self) -> None:
+        check_field_types(self, nonnegative_ints=True)
         checks = (("baseline_m", 0.0, 1.0), ("radius", 0.05, 2.0), ("size_tolerance", 0.0, 1.0),
                   ("overlap_m", 0.001, 0.1), ("support_completeness", 0.0, 1.0))
         for name, lo, hi in checks:

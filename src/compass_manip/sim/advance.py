@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from ..errors import CompassInputError
+from ..errors import CompassInputError, check_field_types
 
 N_ARM = 7
 
@@ -43,6 +43,7 @@ class AdvanceConfig:
     backoff_max: int = 8
 
     def __post_init__(self) -> None:
+        check_field_types(self, nonnegative_ints=True)
         if not (1e-4 <= self.slack_m <= 0.05 and self.slack_m < self.cap_m <= 2.0):
             raise CompassInputError(f"AdvanceConfig slack_m {self.slack_m} m / cap_m {self.cap_m} m not allowed; "
                                     "use 1e-4 <= slack_m <= 0.05 m and slack_m < cap_m <= 2 m")

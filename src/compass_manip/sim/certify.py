@@ -40,7 +40,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..errors import CompassInputError
+from ..errors import CompassInputError, check_field_types, instance_of, check_ranges
 from ..motion.planner import PlannerConfig, plan
 from ..robot.model import Q_MAX, Q_MIN
 from ..types import Trajectory
@@ -129,6 +129,10 @@ class CertifyConfig:
     dense_grasp_levels: tuple[int, ...] = (4,)
 
     def __post_init__(self) -> None:
+        check_field_types(self, nonnegative_ints=True)
+        check_ranges(self, config_noise=(0.0, 3.2, "rad"), margin=(0.0, 0.1, "m"),
+                     min_view_visibility=(0.0, 2.0, ""), max_start_visibility=(0.0, 1.0, ""),  # (min view above 1:
+                     min_obstacle_removal=(0.0, 1.0, ""), view_refine_margin=(0.0, 1.0, ""))  # no view passes)
         if isinstance(self.plan_checks, bool) or not isinstance(self.plan_checks, int) or not 1 <= self.plan_checks <= 10**8:
             raise CompassInputError(f"plan_checks {self.plan_checks!r} is not allowed; use a whole number 1..10**8")
         if not 0.0 <= self.severe_grasp_margin <= 0.05:
@@ -469,7 +473,10 @@ def certified_scene(level: int, index: int, seed: int = 0, config: CertifyConfig
     certification time) and writes the entry (with cache).
     """
     level = check_level(level)
-    config = config or CertifyConfig()
+    config = instance_of(config, CertifyConfig, "config", CertifyConfig())
+    for name, flag in (("cache", cache), ("refresh", refresh)):
+        if not isinstance(flag, (bool, np.bool_)):
+            raise CompassInputError(f"{name} = {flag!r:.40} is not allowed; use True or False")
     if isinstance(index, bool) or not isinstance(index, (int, np.integer)) or index < 0:
         raise CompassInputError(f"scene index {index!r} is not allowed; use an integer >= 0")
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:

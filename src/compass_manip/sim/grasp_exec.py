@@ -19,7 +19,7 @@ from enum import Enum
 import mujoco
 import numpy as np
 
-from ..errors import CompassInputError
+from ..errors import CompassInputError, check_field_types, check_ranges
 from ..motion.timing import TimingConfig, time_parameterize
 from ..types import Trajectory
 from .executor import check_trajectory, interpolate
@@ -60,6 +60,7 @@ class GraspExecConfig:
     settle: float = 0.3
 
     def __post_init__(self) -> None:
+        check_field_types(self, nonnegative_ints=True)
         for k in ("velocity_scale", "approach_scale"):
             v = getattr(self, k)
             if not 0.0 < v <= 1.0:
@@ -69,6 +70,8 @@ class GraspExecConfig:
                 and self.min_width >= 0):
             raise CompassInputError("close_time > 0, hold_time >= 0, 0 < min_lift_fraction <= 1, check_every >= 1, "
                                     "contact_depth >= 0, contact_force >= 0 and min_width >= 0 are required")
+        check_ranges(self, close_time=(0.0, 60.0, "s"), hold_time=(0.0, 60.0, "s"), settle=(0.0, 60.0, "s"),
+                     min_width=(0.0, 0.08, "m"))  # huge contact_depth / contact_force: never counted
 
 
 @dataclass(frozen=True)

@@ -19,6 +19,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from ..errors import check_field_types, check_ranges
 from ..exploration.wrist_sweep import wrist_sweep
 from ..geometry import look_at, make_T, rot_z
 from ..grasp.field import local_fine_map
@@ -81,6 +82,10 @@ class GraspOnlyConfig:
     select: GraspSelectConfig = field(default_factory=GraspSelectConfig)
     execute: GraspExecConfig = field(default_factory=GraspExecConfig)
     inspect: InspectConfig = field(default_factory=InspectConfig)
+
+    def __post_init__(self) -> None:
+        check_field_types(self, nonnegative_ints=True)
+        check_ranges(self, min_visibility=(0.0, 1.0, ""), carve_margin=(0.0, 0.2, "m"), fine_margin=(0.02, 0.5, "m"))
 
 
 @dataclass(frozen=True, eq=False)

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import CompassInputError, real_number
+from ..errors import CompassInputError, real_number, check_field_types
 
 
 @dataclass(frozen=True)
@@ -26,6 +26,7 @@ class KeyframeRule:
     max_interval_s: float = 1.5
 
     def __post_init__(self) -> None:
+        check_field_types(self, nonnegative_ints=True)
         for name, lo, hi, unit in (("min_move_m", 1e-4, 10.0, "m"), ("min_turn_rad", 1e-4, math.pi, "rad"),
                                    ("max_interval_s", 1e-3, 3600.0, "s")):
             v = real_number(getattr(self, name), f"KeyframeRule.{name}", f"{lo}..{hi} {unit}")

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import CompassInputError
+from ..errors import CompassInputError, check_field_types, check_ranges
 from ..exploration.nfa import safe_box_map
 from ..mapping.infogain import info_gain_batch
 from ..mapping.observe import integrate_observation
@@ -47,6 +47,8 @@ class NearFieldScanConfig:
     edge_step: float = 0.05
 
     def __post_init__(self) -> None:
+        check_field_types(self, nonnegative_ints=True)
+        check_ranges(self, yaw_range=(0.0, 6.3, "rad"), max_range=(0.05, 10.0, "m"), edge_step=(1e-4, 0.5, "rad"))
         if self.n_candidates < 1 or self.max_views < 0 or self.min_gain < 0:
             raise CompassInputError(f"n_candidates {self.n_candidates} / max_views {self.max_views} / min_gain "
                                     f"{self.min_gain} not allowed; use >= 1, >= 0, >= 0")

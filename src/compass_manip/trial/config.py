@@ -5,7 +5,7 @@ from __future__ import annotations
 import enum
 from dataclasses import dataclass, field, fields, is_dataclass
 
-from ..errors import CompassInputError
+from ..errors import CompassInputError, check_field_types
 from ..exploration.compass import CompassConfig
 from ..grasp.robot_space import check_near_body_yaw
 from ..grasp.select import GraspSelectConfig
@@ -37,6 +37,7 @@ class ClockConfig:
     measured: bool = False
 
     def __post_init__(self) -> None:
+        check_field_types(self, nonnegative_ints=True)
         if not 0.0 <= self.planning_charge_s <= 60.0:
             raise CompassInputError(f"planning_charge_s {self.planning_charge_s} must be in 0..60 s")
 
@@ -58,12 +59,18 @@ class SensingConfig:
     advance: AdvanceConfig | None = None
 
     def __post_init__(self) -> None:
+        check_field_types(self, nonnegative_ints=True)
         if self.advance is not None and not isinstance(self.advance, AdvanceConfig):
             raise CompassInputError(f"SensingConfig.advance = {self.advance!r:.40} is not allowed; "
                                     "use an AdvanceConfig or None")
         if self.keyframes is not None and not isinstance(self.keyframes, KeyframeRule):
             raise CompassInputError(f"SensingConfig.keyframes = {self.keyframes!r:.40} is not allowed; "
                                     "use a KeyframeRule or None")
+        if not 0.0 <= self.frame_rate <= 1000.0:  # as sim.executor.ExecutorConfig, checked before the trial
+            raise CompassInputError(f"SensingConfig.frame_rate = {self.frame_rate} Hz is not allowed; use 0..1000 Hz")
+        if not 1e-4 <= self.check_step <= 0.5:
+            raise CompassInputError(f"SensingConfig.check_step = {self.check_step} rad is not allowed; "
+                                    "use 1e-4..0.5 rad")
 
 
 @dataclass(frozen=True)
@@ -159,6 +166,7 @@ class GraspTrialConfig:
     looks: BaseLookConfig = field(default_factory=BaseLookConfig)
 
     def __post_init__(self) -> None:
+        check_field_types(self, nonnegative_ints=True)
         if not 0.02 <= self.fine_margin <= 0.5:
             raise CompassInputError(f"fine_margin {self.fine_margin} m is not allowed; use 0.02..0.5 m")
         if self.verify is not None and not isinstance(self.verify, VerifyConfig):
@@ -193,11 +201,15 @@ class TrialConfig:
     grasp: GraspTrialConfig = field(default_factory=GraspTrialConfig)
 
     def __post_init__(self) -> None:
+        check_field_types(self, nonnegative_ints=True)
         kinds = (*DETECTORS, ORACLE_DETECTOR)
         if self.detector_kind not in kinds:
             raise CompassInputError(f"detector_kind {self.detector_kind!r} is not one of {kinds}")
         if not 0 < self.time_limit_s <= 3600:
             raise CompassInputError(f"time_limit_s {self.time_limit_s} must be in (0, 3600] s")
+        if not 0.0 <= self.surroundings_margin <= 1.0:
+            raise CompassInputError(f"TrialConfig.surroundings_margin = {self.surroundings_margin} m is not allowed; "
+                                    "use 0..1 m")
 
     def to_dict(self) -> dict:
         return _jsonable(self)

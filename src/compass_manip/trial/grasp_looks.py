@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import CompassInputError
+from ..errors import CompassInputError, check_field_types
 from ..exploration.viewpoints import view_pose
 from ..motion.planner import DEFAULT_MAX_CHECKS, PlannerConfig
 from .grasp_views import weighted_gain, weighted_voxels
@@ -64,6 +64,7 @@ class BaseLookConfig:
     planner: PlannerConfig = field(default_factory=lambda: PlannerConfig(max_checks=2 * DEFAULT_MAX_CHECKS))
 
     def __post_init__(self) -> None:
+        check_field_types(self, nonnegative_ints=True)
         if isinstance(self.max_looks, bool) or not isinstance(self.max_looks, int) or not 0 <= self.max_looks <= 10:
             raise CompassInputError(f"max_looks {self.max_looks!r} is not allowed; use an integer 0..10")
         if not 0.0 <= self.min_outside <= 1.0 or not 0.0 <= self.min_fraction <= 1.0:

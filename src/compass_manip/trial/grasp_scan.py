@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import CompassInputError
+from ..errors import CompassInputError, check_field_types
 from ..exploration.nfa import safe_box_map
 from ..exploration.viewpoints import view_pose
 from ..exploration.world_model import method_safe_voxels
@@ -75,6 +75,7 @@ class TrialScanConfig:
     back_eye: tuple[tuple[float, float, float], tuple[float, float, float]] = ((0.25, -0.35, 0.55), (0.6, 0.35, 1.05))
 
     def __post_init__(self) -> None:
+        check_field_types(self, nonnegative_ints=True)
         if isinstance(self.max_views, bool) or not isinstance(self.max_views, int) or not 0 <= self.max_views <= 20:
             raise CompassInputError(f"max_views {self.max_views!r} is not allowed; use an integer 0..20")
         if self.min_gain < 0 or not 1 <= self.n_goals <= 100 or not 0 <= self.way_candidates <= 10000:

@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import CompassInputError
+from ..errors import CompassInputError, check_field_types
 from ..grasp.hypotheses import HypothesisConfig
 from ..mapping.occupancy import OccupancyMap, VoxelState
 from ..motion.planner import PlannerConfig, plan
@@ -96,6 +96,7 @@ class InspectConfig:
     planner: PlannerConfig = field(default_factory=PlannerConfig)
 
     def __post_init__(self) -> None:
+        check_field_types(self, nonnegative_ints=True)
         if isinstance(self.n_views, bool) or not isinstance(self.n_views, int) or not 0 <= self.n_views <= 20:
             raise CompassInputError(f"n_views {self.n_views!r} is not allowed; use an integer 0..20")
         if isinstance(self.max_pinned, bool) or not isinstance(self.max_pinned, int) or not 0 <= self.max_pinned <= 1000:

@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..errors import check_field_types, check_ranges
 from ..exploration.base import Decision, Phase, StopReason
 from ..exploration.baseline_common import MapMethod, ViewPlanningConfig, plan_to, timed
 from ..exploration.viewpoints import sample_direction_in_cone, view_configurations, view_pose
@@ -47,6 +48,12 @@ class OracleConfig:
     revisit_radius: float = 0.05
     max_attempts: int = 6
     planning: ViewPlanningConfig = field(default_factory=ViewPlanningConfig)
+
+    def __post_init__(self) -> None:
+        check_field_types(self, nonnegative_ints=True)
+        check_ranges(self, n_views=(1, 100000, ""), rounds=(1, 1000, ""), distance=(0.0, 5.0, "m"),
+                     cone=(0.0, 3.1416, "rad"),                      ik_q7=(1, 1000, ""), ik_solutions=(1, 100, ""),
+                     target_clearance=(0.0, 0.5, "m"), revisit_radius=(0.0, 1.0, "m"), max_attempts=(1, 1000, ""))
 
 
 def line_of_sight_clear(occ, a: np.ndarray, b: np.ndarray, clearance: float) -> bool:

@@ -12,7 +12,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..errors import CompassInputError
+from ..errors import CompassInputError, instance_of
 from ..exploration.registry import available_methods, make_method
 from ..perception.buffer import DetectionBuffer
 from ..perception.detector import DETECTORS
@@ -33,18 +33,24 @@ from .inspect import plan_inspect_view
 from .verify import LookPlanner
 from .machine import MachineOutcome, TrialMachine
 from .metrics import MetricsRecorder
-from .observer import ObserverGroup
+from .observer import _EVENTS, ObserverGroup
 from .oracle_method import ORACLE_METHOD, make_oracle_method
 from .result import TrialFailure, TrialResult
 
 
 @dataclass(frozen=True)
 class TrialSpec:
+    """One trial: a registered method (`trial_methods()`), level 1..4, scene index, trial
+    index and base seed (each an int 0 <= x < 2**63); checked when built (`check_spec`)."""
+
     method: str
     level: int
     scene: int
     trial: int = 0
     seed: int = 0
+
+    def __post_init__(self) -> None:
+        check_spec(self)
 
 
 def trial_methods() -> tuple[str, ...]:
@@ -56,6 +62,9 @@ def trial_methods() -> tuple[str, ...]:
 
 def check_spec(spec: TrialSpec) -> TrialSpec:
     """Raise CompassInputError (one line naming what is allowed) on a bad spec."""
+    if not isinstance(spec, TrialSpec):
+        raise CompassInputError(f"spec = {spec!r:.60} is not allowed; "
+                                "use a TrialSpec(method, level, scene, trial, seed)")
     if spec.method not in trial_methods():
         names = ", ".join(trial_methods())
         raise CompassInputError(f"method {spec.method!r} is not registered; use one of {names}")
@@ -90,8 +99,15 @@ def run_trial(spec: TrialSpec, config: TrialConfig | None = None, progress=None)
 def run_trial_full(spec: TrialSpec, config: TrialConfig | None = None, progress=None, observer=None) -> TrialRun:
     """Run one trial; `observer` (a `trial.observer.TrialObserver`, e.g. a video or Rerun
     recorder) is told of every event and closed at the end, also when the trial raises."""
-    config = config or TrialConfig()
+    config = instance_of(config, TrialConfig, "config", TrialConfig())
     check_spec(spec)
+    if progress is not None and not callable(progress):
+        raise CompassInputError(f"progress = {progress!r:.40} is not allowed; use None or a function of one line")
+    missing = [] if observer is None else [e for e in (*sorted(_EVENTS), "close")
+                                           if not callable(getattr(observer, e, None))]
+    if missing:
+        raise CompassInputError(f"observer {type(observer).__name__} has no {', '.join(missing)}; use None or a "
+                                "trial.observer.TrialObserver")
     method_name = spec.method
     if spec.method == GRASP_ABLATION_METHOD:
         method_name = "compass"

@@ -28,7 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import CompassInputError
+from ..errors import CompassInputError, check_field_types, check_ranges
 from ..exploration.viewpoints import sample_direction_in_cone, view_pose
 from ..grasp.candidates import propose_in_cone
 from ..grasp.carve import target_carve
@@ -108,6 +108,9 @@ class VerifyConfig:
     planner: PlannerConfig = PlannerConfig()
 
     def __post_init__(self) -> None:
+        check_field_types(self, nonnegative_ints=True)
+        check_ranges(self, sigma=(0.0, 6.3, "rad"), wrist_sigma=(0.0, 6.3, "rad"), max_range=(0.05, 10.0, "m"),
+                     way_sigma=(0.0, 6.3, "rad"))
         for name in ("max_views", "max_rounds", "n_dirs", "n_groups", "n_q7", "n_samples", "n_rays",
                      "n_occlusion", "min_seen", "n_goals", "n_way"):
             v = getattr(self, name)
