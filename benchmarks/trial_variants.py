@@ -506,3 +506,13 @@ def base_looks_way_config() -> TrialConfig:
 
 def base_looks_way(spec) -> tuple[dict, dict]:
     return _run(spec, base_looks_way_config())
+
+
+def scan_back16_config() -> TrialConfig:
+    """scan_back_return with up to 16 scan views instead of 8."""
+    g = GraspTrialConfig()
+    return TrialConfig(grasp=replace(g, scan=replace(g.scan, n_back=64, return_back=True, max_views=16)))
+
+
+def scan_back16(spec) -> tuple[dict, dict]:
+    return _run(spec, scan_back16_config())

@@ -70,7 +70,7 @@ def check_field_types(config, nonnegative_ints: bool = False) -> None:
     with `nonnegative_ints`, unless the default is negative), float fields a real number (ints
     accepted; finite, or the default's infinity), str fields a str, enum fields a member of
     the default's enum, config fields an instance of the default's class, number-tuple
-    fields numbers of the default's nesting (finite, non-empty); a field annotated
+    fields numbers of the default's nesting (finite; non-empty unless annotated `tuple[X, ...]`); a field annotated
     `... | None` may also be None (`float | None` / `int | None` defaulting to None: a
     number or None). Fields whose default is None, or whose default (or
     default_factory's value) is of no kind above, are not checked."""
@@ -110,7 +110,7 @@ def check_field_types(config, nonnegative_ints: bool = False) -> None:
                 except (TypeError, ValueError, OverflowError):
                     pass
             fixed, ann, whole = default  # a fixed shape unless annotated `tuple[X, ...]`; whole: `tuple[int, ...]`
-            if (arr is None or arr.ndim != fixed.ndim or arr.size == 0 or not _np().isfinite(arr).all()
+            if (arr is None or arr.ndim != fixed.ndim or (arr.size == 0 and "..." not in ann) or not _np().isfinite(arr).all()
                     or ("..." not in ann and arr.shape != fixed.shape) or (whole and (arr != _np().round(arr)).any())):
                 kind_of = "whole numbers" if whole else "finite numbers"
                 what = (kind_of if "..." in ann else f"{fixed.size} {kind_of}" if fixed.ndim == 1
