@@ -46,6 +46,8 @@ RUN = ["run", "--level", "1", "--scene", "0"]
     (["--grasp-only", "--time-limit", "30"], "--grasp-only does not take --time-limit;"),
     (["--grasp-only", "--find-only", "--out", "o"], "--grasp-only does not take --find-only, --out;"),
     (["--find-only", "--unconstrained"], "--unconstrained changes the grasp selection, which --find-only skips"),
+    (["--find-only", "--method", "compass-no-grasp-constraints"],
+     "--method compass-no-grasp-constraints differs from compass only in its grasp, which --find-only skips"),
     (["--video", ".mp4"], "--video '.mp4' is not allowed; give a file name ending in .mp4"),
     (["--record", "out/.rrd"], "--record 'out/.rrd' is not allowed; give a file name ending in .rrd"),
 ])

@@ -141,6 +141,11 @@ def run(args) -> int:
         raise CompassInputError("--unconstrained changes the grasp selection, which --find-only skips; "
                                 "give one of them")
     method = "compass" if args.method is None else args.method
+    from ..trial.config import GRASP_ABLATION_METHOD
+
+    if args.find_only and method == GRASP_ABLATION_METHOD:
+        raise CompassInputError(f"--method {method} differs from compass only in its grasp, which --find-only "
+                                "skips; give one of them")
     time_limit = 200.0 if args.time_limit is None else args.time_limit
     result_run, config, out = run_checked_trial(
         "run", (method, args.level, args.scene, args.trial, args.seed), time_limit, args.out,
