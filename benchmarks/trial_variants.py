@@ -70,6 +70,7 @@ from __future__ import annotations
 
 from dataclasses import replace
 
+from compass_manip.exploration.compass import CompassConfig
 from compass_manip.grasp.select import GraspSelectConfig
 from compass_manip.perception.detector import DetectorConfig
 from compass_manip.trial.config import GraspTrialConfig, TrialConfig
@@ -516,3 +517,15 @@ def scan_back16_config() -> TrialConfig:
 
 def scan_back16(spec) -> tuple[dict, dict]:
     return _run(spec, scan_back16_config())
+
+
+def find_only_swept3_config() -> TrialConfig:
+    """find-only with the world model's swept-space margin 3 cm instead of 5 cm
+    (`WorldModelConfig.swept_margin`; docs/compass_loop.md, "Three grazing contacts")."""
+    c = CompassConfig()
+    return TrialConfig(method=replace(c, world=replace(c.world, swept_margin=0.03)),
+                       grasp=GraspTrialConfig(enabled=False))
+
+
+def find_only_swept3(spec) -> tuple[dict, dict]:
+    return _run(spec, find_only_swept3_config())
