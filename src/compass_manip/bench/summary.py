@@ -107,6 +107,17 @@ def table_one(records: list[TrialRecord]) -> Table | None:
                      "(runner errors and wall-time kills as failures)."))
 
 
+def _metric_column(key: str):
+    """An ablation column (label, cell function) of Table I's metric `key`, as Table I shows it."""
+    metric = next(m for m in TABLE_ONE if m.key == key)
+    return metric.label, lambda recs: _text(estimate(recs, metric), metric)
+
+
+#: MC: trials with a ground-truth collision, over trials with a result
+_COLLISION_COLUMN = ("MC ↓", lambda recs: fmt_count(
+    sum(1 for r in recs if r.result and (r.result.get("collisions") or 0) > 0), sum(1 for r in recs if r.result)))
+
+
 def _variant_rows(groups: Groups, base: str, ablation: str, columns) -> tuple[tuple, ...]:
     rows = []
     for lv in sorted({lv for m, lv in groups if m in (base, ablation)}):
@@ -127,10 +138,10 @@ def ablation_nfa(records: list[TrialRecord]) -> Table:
     groups = group(records)
     with_result = lambda recs: [r for r in recs if r.result is not None]  # noqa: E731
     columns = [
-        ("MPSR (%) ↑", lambda recs: fmt_mean(mean_t95(r.result.get("mpsr") for r in with_result(recs)), 100.0)),
+        _metric_column("mpsr"),
         ("DSR (%) ↑", lambda recs: fmt_rate(wilson95(sum(r.result.get("true_detection") is True
                                                          for r in with_result(recs)), len(with_result(recs))))),
-        ("SR (%) ↑", lambda recs: fmt_rate(wilson95(sum(r.success for r in recs), len(recs)))),
+        _metric_column(SUCCESS),
     ]
     notes = ["DSR: trials whose accepted detection was the true target, over trials with a result."]
     absent = _absent({m for m, _ in groups}, "compass", NFA_ABLATION)
@@ -144,12 +155,11 @@ def ablation_grasp(records: list[TrialRecord]) -> Table:
     subset = [r for r in records if r.method in ("compass", GRASP_ABLATION)]
     reasons = sorted({r.failure for r in subset if r.failure is not None})
     columns = [
-        ("SR (%) ↑", lambda recs: fmt_rate(wilson95(sum(r.success for r in recs), len(recs)))),
+        _metric_column(SUCCESS),
         ("Grasp SR (%) ↑", lambda recs: fmt_rate(wilson95(
             sum(r.success for r in recs if r.result and r.result.get("gpq") is not None),
             sum(1 for r in recs if r.result and r.result.get("gpq") is not None)))),
-        ("MC ↓", lambda recs: fmt_count(sum(1 for r in recs if r.result and (r.result.get("collisions") or 0) > 0),
-                                        sum(1 for r in recs if r.result))),
+        _COLLISION_COLUMN,
     ] + [(f"{reason} ↓", lambda recs, reason=reason: fmt_count(sum(r.failure == reason for r in recs), len(recs)))
          for reason in reasons]
     notes = ["Grasp SR: successes over trials that selected a grasp (GPQ recorded); "
@@ -166,15 +176,7 @@ def ablation_rule(records: list[TrialRecord]) -> Table | None:
     groups = group(records)
     if not any(m == RULE_ABLATION for m, _ in groups):
         return None
-    with_result = lambda recs: [r for r in recs if r.result is not None]  # noqa: E731
-    columns = [
-        ("TFT (s) ↓", lambda recs: fmt_mean(mean_t95(r.result.get("tft_s") for r in with_result(recs)), 1.0, 1)),
-        ("Found (%) ↑", lambda recs: fmt_rate(wilson95(sum(bool(r.result.get(FOUND)) for r in with_result(recs)),
-                                                       len(recs)))),
-        ("SR (%) ↑", lambda recs: fmt_rate(wilson95(sum(r.success for r in recs), len(recs)))),
-        ("MC ↓", lambda recs: fmt_count(sum(1 for r in with_result(recs) if (r.result.get("collisions") or 0) > 0),
-                                        len(with_result(recs)))),
-    ]
+    columns = [_metric_column("tft_s"), _metric_column(FOUND), _metric_column(SUCCESS), _COLLISION_COLUMN]
     notes = ["compass-baseline-rule: COMPASS with unknown space outside the confined space counted as free, "
              "Omega_safe included (the baselines' rule); compass keeps unknown space inside Omega_safe unsafe.",
              "MC: trials with a ground-truth collision, over trials with a result."]
