@@ -529,3 +529,24 @@ def find_only_swept3_config() -> TrialConfig:
 
 def find_only_swept3(spec) -> tuple[dict, dict]:
     return _run(spec, find_only_swept3_config())
+
+
+def find_only_guard0_config() -> TrialConfig:
+    """find-only with the pure creep guard: no unknown voxel next to seen free space may be
+    covered either (`WorldModelConfig.creep_anchor` 0; docs/compass_loop.md, "The creep guard")."""
+    c = CompassConfig()
+    return TrialConfig(method=replace(c, world=replace(c.world, creep_anchor=0.0)), grasp=GraspTrialConfig(enabled=False))
+
+
+def find_only_guard0(spec) -> tuple[dict, dict]:
+    return _run(spec, find_only_guard0_config())
+
+
+def find_only_no_creep_guard_config() -> TrialConfig:
+    """find-only without the creep guard (`WorldModelConfig.creep_guard`), as before 2026-11-24."""
+    c = CompassConfig()
+    return TrialConfig(method=replace(c, world=replace(c.world, creep_guard=False)), grasp=GraspTrialConfig(enabled=False))
+
+
+def find_only_no_creep_guard(spec) -> tuple[dict, dict]:
+    return _run(spec, find_only_no_creep_guard_config())

@@ -235,6 +235,9 @@ class CompassMethod:
             path = validated_path(scored.tree.path_to(int(k)), checker, config.verify_resolution)
             if path is None:
                 continue
+            if self.world.creeps(path):  # into unknown space the arm has not covered (`world_model`)
+                stats["creep_rejected"] = stats.get("creep_rejected", 0) + 1
+                continue
             succeeded += 1
             self.t_prev = scored.T_world_cam[0, :3, 3].copy()
             stats.update(node=int(k), G=float(scored.G[k]), D=float(scored.D[k]), M=float(scored.M[k]),

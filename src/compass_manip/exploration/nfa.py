@@ -151,7 +151,8 @@ def nfa_step(world, q_body: np.ndarray, base_pos: np.ndarray, config: NFAConfig,
                 continue
             q_goal = fine[0]
         attempted += 1
-        if checker.edge_valid(q_now, q_goal, config.edge_resolution):
+        path = np.stack([q_now, q_goal])
+        if checker.edge_valid(q_now, q_goal, config.edge_resolution) and not world.creeps(path):
             succeeded += 1
-            return np.stack([q_now, q_goal]), int(gains[i]), attempted, succeeded, scratch
+            return path, int(gains[i]), attempted, succeeded, scratch
     return None, int(gains[order[0]]), attempted, succeeded, scratch

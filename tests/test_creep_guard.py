@@ -1,0 +1,122 @@
+"""The creep guard (`world_model.WorldModel.creeps`): the swept-space margin lets each motion
+end a few cm beyond where the arm has been, in unknown space; without the guard, motion after
+motion carries the arm into space nobody has seen. The guard refuses any new motion whose
+spheres cover unknown voxels the arm has not covered, and lets it retrace its way."""
+from dataclasses import replace
+
+import numpy as np
+
+from compass_manip.exploration.world_model import WorldModel, WorldModelConfig
+from compass_manip.mapping.occupancy import VoxelState
+from compass_manip.robot.model import RobotConfig
+
+Q_HOME = np.asarray(RobotConfig().q_home, float)
+
+
+def shoulder_steps(q: np.ndarray, n: int, step: float = 0.01) -> list[np.ndarray]:
+    """n paths that each lower the shoulder (joint 2) by step [rad]: the hand goes forward."""
+    out = []
+    for _ in range(n):
+        nxt = q.copy()
+        nxt[1] += step
+        out.append(np.stack([q, nxt]))
+        q = nxt
+    return out
+
+
+def sphere_travel(wm: WorldModel, q: np.ndarray) -> float:
+    """Farthest any sphere centre lies from where it was at home [m]."""
+    c = wm.spheres.sphere_centers(np.stack([Q_HOME, q]))
+    return float(np.linalg.norm(c[1] - c[0], axis=1).max())
+
+
+def test_without_the_guard_checker_valid_motions_creep_far_into_unknown_space():
+    wm = WorldModel(Q_HOME, WorldModelConfig(creep_guard=False))
+    q = Q_HOME
+    for path in shoulder_steps(Q_HOME, 60):
+        if not wm.checker.path_valid(path, 0.01):
+            break
+        assert not wm.creeps(path)  # the guard is off
+        wm.add_swept(path)
+        q = path[-1]
+    # every 1 cm step was valid on the checker (5 cm margin around the way so far) although
+    # the map has seen nothing: the hand went 25 cm, beyond the start shell's 10 cm
+    assert q[1] - Q_HOME[1] > 0.5
+    assert sphere_travel(wm, q) > 0.25
+
+
+def test_the_guard_refuses_the_first_step_into_unknown_space_that_the_checker_allows():
+    wm = WorldModel(Q_HOME)
+    steps = shoulder_steps(Q_HOME, 60)
+    q = Q_HOME
+    refused = None
+    for i, path in enumerate(steps):
+        assert wm.checker.path_valid(path, 0.01)
+        if wm.creeps(path):
+            refused = i
+            break
+        wm.add_swept(path)
+        q = path[-1]
+    assert refused is not None  # within the start shell (10 cm) and no farther
+    assert 0.02 < sphere_travel(wm, q) < 0.12
+
+
+def test_executed_paths_and_their_reverse_never_creep():
+    wm = WorldModel(Q_HOME)
+    rng = np.random.default_rng(5)
+    q = Q_HOME
+    for _ in range(4):
+        path = np.vstack([q, q + np.cumsum(rng.uniform(-0.03, 0.03, (3, 7)), axis=0)])
+        wm.add_swept(path)  # as if executed (proprioception: the arm was there)
+        assert not wm.creeps(path) and not wm.creeps(path[::-1])
+        q = path[-1]
+    assert not wm.creeps(q[None])  # resting where it stands
+
+
+def test_seen_free_space_and_assumed_free_space_may_be_entered():
+    wm = WorldModel(Q_HOME)
+    path = shoulder_steps(Q_HOME, 1, 0.3)[0]
+    assert wm.creeps(path)
+    wm.occ.state[wm.occ.state == VoxelState.UNKNOWN] = VoxelState.FREE
+    wm._untouched = None  # as after an observation
+    assert not wm.creeps(path)
+    wm2 = WorldModel(Q_HOME)
+    wm2.assumed_free[...] = True
+    assert not wm2.creeps(path)
+
+
+def test_touched_space_is_the_spheres_grown_by_touch_margin_sampled_every_touch_step():
+    config = WorldModelConfig()
+    wm = WorldModel(Q_HOME, config)
+    before = wm.touched.copy()
+    path = shoulder_steps(Q_HOME, 1, 0.3)[0]
+    wm.add_swept(path)
+    grown = wm.touched & ~before
+    assert grown.any()
+    wm_small = WorldModel(Q_HOME, replace(config, touch_margin=0.0))
+    wm_small.add_swept(path)
+    assert (wm_small.touched & ~before).sum() < grown.sum()
+    # the swept space (5 cm margin) covers more than what the guard lets a motion enter
+    assert (wm.swept & ~wm.touched).any() and not (wm.touched & ~wm.swept).any()
+
+
+def test_the_anchor_lets_a_motion_cover_unknown_voxels_next_to_seen_free_space_only():
+    config = WorldModelConfig(creep_anchor=0.02)
+    path = shoulder_steps(Q_HOME, 1, 0.3)[0]
+    wm = WorldModel(Q_HOME, config)
+    covered = np.zeros(wm.occ.shape, bool)
+    from compass_manip.mapping.distance import mark_robot
+    mark_robot(covered, wm.occ, wm.spheres, wm._touch_samples(path), config.touch_margin)
+    new = covered & ~wm.touched
+    assert new.any() and wm.creeps(path)
+    # seen free: every other plane of voxels across x; every unknown voxel lies next to one
+    x = np.arange(wm.occ.shape[0])
+    wm.occ.state[x % 2 == 0] = VoxelState.FREE
+    wm._untouched = None
+    assert not wm.creeps(path)
+    # every fourth plane: the planes x % 4 == 2 lie two voxels (4 cm) from seen free space
+    assert np.any(new[x % 4 == 2])
+    wm.occ.state[...] = VoxelState.UNKNOWN
+    wm.occ.state[x % 4 == 0] = VoxelState.FREE
+    wm._untouched = None
+    assert wm.creeps(path)
