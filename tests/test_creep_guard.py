@@ -120,3 +120,20 @@ def test_the_anchor_lets_a_motion_cover_unknown_voxels_next_to_seen_free_space_o
     wm.occ.state[x % 4 == 0] = VoxelState.FREE
     wm._untouched = None
     assert wm.creeps(path)
+
+
+def test_robot_covers_any_equals_marking_the_spheres_and_intersecting():
+    from compass_manip.mapping.distance import mark_robot, robot_covers_any
+    wm = WorldModel(Q_HOME)
+    rng = np.random.default_rng(11)
+    answers = set()
+    for trial in range(12):
+        mask = rng.random(wm.occ.shape) < (0.0005 if trial % 2 else 0.00005)
+        path = np.vstack([Q_HOME, Q_HOME + rng.uniform(-0.4, 0.4, 7) * [1, 1, 1, 0, 1, 0, 1]])
+        margin = rng.uniform(0.0, 0.03)
+        covered = np.zeros(wm.occ.shape, bool)
+        mark_robot(covered, wm.occ, wm.spheres, path, margin)
+        expected = bool(np.any(covered & mask))
+        assert robot_covers_any(mask, wm.occ, wm.spheres, path, margin) == expected
+        answers.add(expected)
+    assert answers == {True, False}

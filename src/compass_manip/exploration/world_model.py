@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import CompassInputError, check_field_types, check_ranges
-from ..mapping.distance import mark_in_spheres, mark_robot, unsafe_mask
+from ..mapping.distance import mark_in_spheres, mark_robot, robot_covers_any, unsafe_mask
 from ..mapping.distance_incremental import CappedDistance
 from ..mapping.frontiers import FrontierCluster, FrontierConfig, find_frontiers
 from ..mapping.observe import integrate_observation
@@ -274,9 +274,8 @@ class WorldModel:
             n = int(round(self.config.creep_anchor / self.occ.resolution))
             if n > 0:
                 self._untouched &= ~manhattan_dilate(self.occ.state == VoxelState.FREE, n)
-        covered = np.zeros(self.occ.shape, bool)
-        mark_robot(covered, self.occ, self.spheres, self._touch_samples(path), self.config.touch_margin)
-        return bool(np.any(covered & self._untouched))
+        return robot_covers_any(self._untouched, self.occ, self.spheres, self._touch_samples(path),
+                                self.config.touch_margin)
 
     @property
     def checker(self) -> ValidityChecker:

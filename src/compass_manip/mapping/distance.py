@@ -148,6 +148,25 @@ def mark_robot(mask: np.ndarray, occ_map: OccupancyMap, spheres, Q: np.ndarray, 
     _mark_ordered(mask, occ_map.grid_min, occ_map.resolution, C.reshape(-1, 3)[take], np.tile(r, len(Q))[take])
 
 
+def robot_covers_any(mask: np.ndarray, occ_map: OccupancyMap, spheres, Q: np.ndarray, margin: float) -> bool:
+    """True if `mark_robot(..., Q, margin)` would set a voxel that mask (occ_map's grid, bool)
+    has set: the same spheres and the same per-voxel test (`_clear_spheres` on a copy of
+    mask), without marking a grid: blocks of mask with nothing set are skipped."""
+    Q = np.asarray(Q, dtype=np.float64).reshape(-1, 7)
+    if mask.dtype != np.bool_ or not mask.flags.c_contiguous:
+        raise CompassInputError(f"robot_covers_any needs a C-contiguous bool mask, not {mask.dtype}")
+    C = spheres.sphere_centers(Q)
+    r = np.asarray(spheres.radii, dtype=np.float64) + margin
+    take = way_order(C, r)
+    left = mask.copy()
+    before = int(np.count_nonzero(left))
+    if before == 0:
+        return False
+    _clear_spheres(left, np.asarray(occ_map.grid_min, dtype=np.float64), float(occ_map.resolution),
+                   np.ascontiguousarray(C.reshape(-1, 3)[take]), np.ascontiguousarray(np.tile(r, len(Q))[take]))
+    return int(np.count_nonzero(left)) < before
+
+
 def way_order(C: np.ndarray, radii: np.ndarray) -> np.ndarray:
     """Indices into C.reshape(-1, 3) (C: (M, S, 3) [m], the centres of the same S spheres, radii
     (S,) [m], at M configurations in order): by radius, largest first, each model sphere along
