@@ -108,7 +108,8 @@ class WorldModelConfig:
         check_ranges(self, max_range=(0.05, 10.0, "m"), swept_margin=(0.0, 0.5, "m"),
                      start_free_margin=(0.0, 0.5, "m"), start_body_margin=(0.0, 0.5, "m"),
                      space_margin=(-0.5, 0.5, "m"), floor_margin=(0.0, 1.0, "m"), obstacle_halo=(0.0, 0.5, "m"),
-                     sweep_step=(1e-3, 1.0, "rad"), touch_margin=(0.0, 0.5, "m"), touch_step=(1e-3, 1.0, "rad"))
+                     sweep_step=(1e-3, 1.0, "rad"), touch_margin=(0.0, 0.5, "m"), touch_step=(1e-3, 1.0, "rad"),
+                     creep_anchor=(0.0, 0.5, "m"))
         box = None
         if self.near_base_box is not None and not isinstance(self.near_base_box, (str, bytes)):
             try:
@@ -228,7 +229,8 @@ class WorldModel:
         self._halo = None  # the obstacle halo, kept between checker rebuilds (`halo.ObstacleHalo`)
         self.assumed_free = assumed_free_mask(self.occ, task, self.config)
         self._mark_start_shell(task)
-        self.touched = self.swept.copy()  # the unknown voxels a new motion may cover (creep guard)
+        self._touched = self.swept.copy()  # the unknown voxels a new motion may cover (creep guard)
+        self._to_touch: list[np.ndarray] = []  # executed paths not yet marked in it (marked when asked)
         self._untouched: np.ndarray | None = None
 
     def _mark_start_shell(self, task) -> None:
@@ -256,8 +258,18 @@ class WorldModel:
         self.q = np.asarray(path, dtype=np.float64).reshape(-1, 7)[-1].copy()
         self._checker = None
         if self.config.creep_guard:
-            mark_robot(self.touched, self.occ, self.spheres, self._touch_samples(path), self.config.touch_margin)
+            self._to_touch.append(np.asarray(path, dtype=np.float64).reshape(-1, 7).copy())
             self._untouched = None
+
+    @property
+    def touched(self) -> np.ndarray:
+        """(nx, ny, nz) bool: the voxels the robot's spheres grown by touch_margin have covered
+        at the executed paths' configurations every touch_step, and the start shell (marked
+        when first asked for: the baselines share this model and never ask)."""
+        for path in self._to_touch:
+            mark_robot(self._touched, self.occ, self.spheres, self._touch_samples(path), self.config.touch_margin)
+        self._to_touch.clear()
+        return self._touched
 
     def _touch_samples(self, path: np.ndarray) -> np.ndarray:
         return densify(np.asarray(path, dtype=np.float64).reshape(-1, 7), self.config.touch_step)

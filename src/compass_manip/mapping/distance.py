@@ -141,29 +141,31 @@ def mark_robot(mask: np.ndarray, occ_map: OccupancyMap, spheres, Q: np.ndarray, 
     (`mark_in_spheres`): the swept space and start shell of `exploration.world_model`. The
     spheres go in as `way_order` gives them (the same union as `union_order`'s, without its
     sort of every sphere)."""
+    _mark_ordered(mask, occ_map.grid_min, occ_map.resolution, *_robot_way(spheres, Q, margin))
+
+
+def _robot_way(spheres, Q: np.ndarray, margin: float) -> tuple[np.ndarray, np.ndarray]:
+    """(centres (n, 3) [m], radii (n,) [m]): the robot's spheres grown by margin [m] at every
+    configuration of Q (m, 7) [rad], in `way_order` (exact repeats dropped)."""
     Q = np.asarray(Q, dtype=np.float64).reshape(-1, 7)
     C = spheres.sphere_centers(Q)
     r = np.asarray(spheres.radii, dtype=np.float64) + margin
     take = way_order(C, r)
-    _mark_ordered(mask, occ_map.grid_min, occ_map.resolution, C.reshape(-1, 3)[take], np.tile(r, len(Q))[take])
+    return np.ascontiguousarray(C.reshape(-1, 3)[take]), np.ascontiguousarray(np.tile(r, len(Q))[take])
 
 
 def robot_covers_any(mask: np.ndarray, occ_map: OccupancyMap, spheres, Q: np.ndarray, margin: float) -> bool:
     """True if `mark_robot(..., Q, margin)` would set a voxel that mask (occ_map's grid, bool)
     has set: the same spheres and the same per-voxel test (`_clear_spheres` on a copy of
     mask), without marking a grid: blocks of mask with nothing set are skipped."""
-    Q = np.asarray(Q, dtype=np.float64).reshape(-1, 7)
     if mask.dtype != np.bool_ or not mask.flags.c_contiguous:
         raise CompassInputError(f"robot_covers_any needs a C-contiguous bool mask, not {mask.dtype}")
-    C = spheres.sphere_centers(Q)
-    r = np.asarray(spheres.radii, dtype=np.float64) + margin
-    take = way_order(C, r)
-    left = mask.copy()
-    before = int(np.count_nonzero(left))
+    before = int(np.count_nonzero(mask))
     if before == 0:
         return False
+    left = mask.copy()
     _clear_spheres(left, np.asarray(occ_map.grid_min, dtype=np.float64), float(occ_map.resolution),
-                   np.ascontiguousarray(C.reshape(-1, 3)[take]), np.ascontiguousarray(np.tile(r, len(Q))[take]))
+                   *_robot_way(spheres, Q, margin))
     return int(np.count_nonzero(left)) < before
 
 
