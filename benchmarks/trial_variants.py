@@ -550,3 +550,14 @@ def find_only_no_creep_guard_config() -> TrialConfig:
 
 def find_only_no_creep_guard(spec) -> tuple[dict, dict]:
     return _run(spec, find_only_no_creep_guard_config())
+
+
+def find_only_anchor4_config() -> TrialConfig:
+    """find-only with the creep guard's anchor at 4 cm instead of 2 cm (`WorldModelConfig.creep_anchor`:
+    unknown voxels up to two voxels from seen free space may be covered)."""
+    c = CompassConfig()
+    return TrialConfig(method=replace(c, world=replace(c.world, creep_anchor=0.04)), grasp=GraspTrialConfig(enabled=False))
+
+
+def find_only_anchor4(spec) -> tuple[dict, dict]:
+    return _run(spec, find_only_anchor4_config())
