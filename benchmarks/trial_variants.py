@@ -519,12 +519,16 @@ def scan_back16(spec) -> tuple[dict, dict]:
     return _run(spec, scan_back16_config())
 
 
+def find_only_world(**changes) -> TrialConfig:
+    """find-only COMPASS with these `WorldModelConfig` fields changed."""
+    c = CompassConfig()
+    return TrialConfig(method=replace(c, world=replace(c.world, **changes)), grasp=GraspTrialConfig(enabled=False))
+
+
 def find_only_swept3_config() -> TrialConfig:
     """find-only with the world model's swept-space margin 3 cm instead of 5 cm
     (`WorldModelConfig.swept_margin`; docs/compass_loop.md, "Three grazing contacts")."""
-    c = CompassConfig()
-    return TrialConfig(method=replace(c, world=replace(c.world, swept_margin=0.03)),
-                       grasp=GraspTrialConfig(enabled=False))
+    return find_only_world(swept_margin=0.03)
 
 
 def find_only_swept3(spec) -> tuple[dict, dict]:
@@ -534,8 +538,7 @@ def find_only_swept3(spec) -> tuple[dict, dict]:
 def find_only_guard0_config() -> TrialConfig:
     """find-only with the pure creep guard: no unknown voxel next to seen free space may be
     covered either (`WorldModelConfig.creep_anchor` 0; docs/compass_loop.md, "The creep guard")."""
-    c = CompassConfig()
-    return TrialConfig(method=replace(c, world=replace(c.world, creep_anchor=0.0)), grasp=GraspTrialConfig(enabled=False))
+    return find_only_world(creep_anchor=0.0)
 
 
 def find_only_guard0(spec) -> tuple[dict, dict]:
@@ -544,8 +547,7 @@ def find_only_guard0(spec) -> tuple[dict, dict]:
 
 def find_only_no_creep_guard_config() -> TrialConfig:
     """find-only without the creep guard (`WorldModelConfig.creep_guard`), as before 2026-11-24."""
-    c = CompassConfig()
-    return TrialConfig(method=replace(c, world=replace(c.world, creep_guard=False)), grasp=GraspTrialConfig(enabled=False))
+    return find_only_world(creep_guard=False)
 
 
 def find_only_no_creep_guard(spec) -> tuple[dict, dict]:
@@ -555,8 +557,7 @@ def find_only_no_creep_guard(spec) -> tuple[dict, dict]:
 def find_only_anchor4_config() -> TrialConfig:
     """find-only with the creep guard's anchor at 4 cm instead of 2 cm (`WorldModelConfig.creep_anchor`:
     unknown voxels up to two voxels from seen free space may be covered)."""
-    c = CompassConfig()
-    return TrialConfig(method=replace(c, world=replace(c.world, creep_anchor=0.04)), grasp=GraspTrialConfig(enabled=False))
+    return find_only_world(creep_anchor=0.04)
 
 
 def find_only_anchor4(spec) -> tuple[dict, dict]:

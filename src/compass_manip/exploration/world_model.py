@@ -232,6 +232,7 @@ class WorldModel:
         self._touched = self.swept.copy()  # the unknown voxels a new motion may cover (creep guard)
         self._to_touch: list[np.ndarray] = []  # executed paths not yet marked in it (marked when asked)
         self._untouched: np.ndarray | None = None
+        self._anchor = ObstacleHalo(int(round(self.config.creep_anchor / self.occ.resolution)))  # near seen free
 
     def _mark_start_shell(self, task) -> None:
         self.swept |= start_shell(self.occ, self.spheres, self.q, self.config.start_body_margin,
@@ -283,9 +284,8 @@ class WorldModel:
             return False
         if self._untouched is None:
             self._untouched = (self.occ.state == VoxelState.UNKNOWN) & ~self.touched & ~self.assumed_free
-            n = int(round(self.config.creep_anchor / self.occ.resolution))
-            if n > 0:
-                self._untouched &= ~manhattan_dilate(self.occ.state == VoxelState.FREE, n)
+            if self._anchor.r > 0:  # the seen free space's L1 halo, kept between map updates
+                self._untouched &= ~self._anchor.near(self.occ.state == VoxelState.FREE)
         return robot_covers_any(self._untouched, self.occ, self.spheres, self._touch_samples(path),
                                 self.config.touch_margin)
 
