@@ -124,6 +124,8 @@ def test_the_anchor_lets_a_motion_cover_unknown_voxels_next_to_seen_free_space_o
 
 def test_robot_covers_any_equals_marking_the_spheres_and_intersecting():
     from compass_manip.mapping.distance import mark_robot, robot_covers_any
+    from compass_manip.motion.timing import densify
+    from compass_manip.robot.model import Q_MAX, Q_MIN
     wm = WorldModel(Q_HOME)
     rng = np.random.default_rng(11)
     answers = set()
@@ -137,3 +139,46 @@ def test_robot_covers_any_equals_marking_the_spheres_and_intersecting():
         assert robot_covers_any(mask, wm.occ, wm.spheres, path, margin) == expected
         answers.add(expected)
     assert answers == {True, False}
+
+
+def test_the_guarded_checker_keeps_the_resting_configuration_and_refuses_what_the_guard_refuses():
+    wm = WorldModel(Q_HOME)
+    steps = shoulder_steps(Q_HOME, 60)
+    for path in steps:  # walk to the edge of the start shell, as the guard lets the arm
+        if wm.creeps(path):
+            break
+        wm.add_swept(path)
+    q = wm.q
+    far = q.copy()
+    far[1] += 0.3  # 30 cm of shoulder: far into space the arm has never covered
+    assert wm.checker.is_valid(q) and wm.guarded_checker.is_valid(q)  # the resting configuration
+    assert wm.creeps(np.stack([q, far]))
+    assert not wm.guarded_checker.is_valid(far)  # unknown, uncovered: unsafe on the guarded checker
+    nxt = q.copy()
+    nxt[1] += 0.01  # the step the guard refuses: the checker's swept margin allows it, the guarded one not
+    assert wm.creeps(np.stack([q, nxt]))
+    assert wm.checker.is_valid(nxt) and not wm.guarded_checker.is_valid(nxt)
+    back = np.stack([q, Q_HOME])  # back along covered space: the same verdict as the checker's
+    assert wm.guarded_checker.path_valid(back, 0.01) == wm.checker.path_valid(back, 0.01)
+    assert wm.guarded_checker.path_valid(back, 0.01)
+
+
+def test_motions_valid_on_the_guarded_checker_creep_only_near_where_the_arm_rests():
+    from compass_manip.exploration.world_model import guard_root_band
+    from compass_manip.mapping.distance import mark_robot, robot_covers_any
+    from compass_manip.motion.timing import densify
+    from compass_manip.robot.model import Q_MAX, Q_MIN
+    wm = WorldModel(Q_HOME)
+    rng = np.random.default_rng(3)
+    near_q = np.zeros(wm.occ.shape, bool)
+    mark_robot(near_q, wm.occ, wm.spheres, wm.q[None], guard_root_band(wm.config.validity, wm.occ.resolution))
+    outside_band = wm.untouched & ~near_q
+    valid = 0
+    for _ in range(300):
+        goal = np.clip(Q_HOME + rng.uniform(-0.25, 0.25, 7), Q_MIN, Q_MAX)
+        path = np.stack([Q_HOME, goal])
+        if wm.guarded_checker.path_valid(path, 0.01):
+            valid += 1
+            Q = densify(path, 0.01)
+            assert not robot_covers_any(outside_band, wm.occ, wm.spheres, Q, wm.config.touch_margin)
+    assert valid > 5  # the band leaves room to move (the test is not vacuous)

@@ -37,7 +37,11 @@ class CompassConfig:
     configuration a new frame made invalid on the map (`escape.py`); near_field_unsafe:
     unknown space inside Omega_safe (the NFA's box around the base) stays unsafe for this
     method's motions until seen (`WorldModelConfig.near_base_box`; the shared default,
-    which the baselines keep, lets unknown space outside the confined space count as free)."""
+    which the baselines keep, lets unknown space outside the confined space count as free);
+    tree_on_guard / scan_on_guard: grow the tree and shortcut its paths / pull the near-field
+    candidates back on `WorldModel.guarded_checker` (the creep guard's voxels unsafe), so
+    that the views offered are those the guard admits (False: on the checker, the guard
+    refusing paths afterwards)."""
 
     world: WorldModelConfig = field(default_factory=WorldModelConfig)
     nfa: NFAConfig = field(default_factory=NFAConfig)
@@ -50,6 +54,8 @@ class CompassConfig:
     hint_memory: int = 20
     escape: EscapeConfig = field(default_factory=EscapeConfig)
     near_field_unsafe: bool = True
+    tree_on_guard: bool = False
+    scan_on_guard: bool = False
 
     def __post_init__(self) -> None:
         check_field_types(self, nonnegative_ints=True)
@@ -132,10 +138,21 @@ class CompassMethod:
     def points_of_interest(self) -> np.ndarray:
         return self.hints if len(self.hints) else self.priors
 
+    @property
+    def _tree_checker(self):
+        """The checker the viewpoint tree grows on (`CompassConfig.tree_on_guard`)."""
+        return self.world.guarded_checker if self.config.tree_on_guard else self.world.checker
+
+    @property
+    def _scan_checker(self):
+        """The checker near-field candidates are pulled back on (`CompassConfig.scan_on_guard`)."""
+        return self.world.guarded_checker if self.config.scan_on_guard else self.world.checker
+
     # ---------------------------------------------------------------- decisions
     def decide(self) -> Decision:
         t0 = time.perf_counter()
         self.world.checker  # rebuild the distance field / validity checker on the new map
+        self._tree_checker, self._scan_checker  # and the guarded one (its own field, updated where it changed)
         self._checker_ms = 1000 * (time.perf_counter() - t0)
         escape = escape_decision(self.world.checker, self.world.q, self.config.escape, self.rng, self.phase)
         if escape is not None:
@@ -159,7 +176,8 @@ class CompassMethod:
         path, gain, att, ok = None, 0, 0, 0
         if self.config.nfa.enabled:
             path, gain, att, ok, self._scratch = nfa_step(self.world, self.world.q, np.asarray(self.task.robot_base_pos),
-                                                          self.config.nfa, self.K, self.rng, self._scratch)
+                                                          self.config.nfa, self.K, self.rng, self._scratch,
+                                                          self._scan_checker)
         att, ok = att + stuck.plans_attempted, ok + stuck.plans_succeeded
         stats = {**stuck.stats, "rescan_gain": gain}
         if path is None and self.history:
@@ -187,7 +205,7 @@ class CompassMethod:
         if self.nfa_views >= config.max_views:
             return None
         path, gain, att, ok, self._scratch = nfa_step(self.world, self.q_body, np.asarray(self.task.robot_base_pos),
-                                                      config, self.K, self.rng, self._scratch)
+                                                      config, self.K, self.rng, self._scratch, self._scan_checker)
         if path is None:
             return None
         self.nfa_views += 1
@@ -212,7 +230,7 @@ class CompassMethod:
         for factor in (1, config.retry_iterations_factor):
             tree_cfg = config.tree if factor == 1 else _scaled(config.tree, factor)
             tree = grow_tree(self.world, self.ik, frontiers, points, outward, tree_cfg, self.rng,
-                             hinted=len(self.hints) > 0)
+                             hinted=len(self.hints) > 0, checker=self._tree_checker)
             scored = score_tree(self.world, tree, self.K, self.t_prev, points, config.weights, tree_cfg, gain_map)
             if np.isfinite(scored.U).any():
                 break
@@ -226,7 +244,7 @@ class CompassMethod:
         if not np.isfinite(scored.U).any():
             stop = StopReason.EXPLORED if not frontiers else StopReason.NO_REACHABLE_VIEW
             return Decision(None, stop, Phase.EXPLORE, stats=stats, debug=tree_debug(scored))
-        checker = self.world.checker
+        checker = self._tree_checker
         order = np.argsort(-scored.U, kind="stable")
         for k in order[: config.max_attempts]:
             if not np.isfinite(scored.U[k]):

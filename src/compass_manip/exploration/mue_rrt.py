@@ -20,6 +20,7 @@ import numpy as np
 
 from ..errors import CompassInputError, check_field_types, check_ranges
 from ..mapping.infogain import info_gain_batch
+from ..mapping.self_occlusion import robot_blocked_rays
 from ..motion.tree import JointTree
 from ..robot.model import Q_MAX, Q_MIN
 from .utility import heuristic, momentum, utility
@@ -40,7 +41,9 @@ class TreeConfig:
     boards and just outside them, which no view can clear, do not lure the camera),
     instead of all unknown voxels in view;
     min_view_change [m]: a node counts as a new view only if its camera moved at least this
-    far from the root's, or turned by at least min_view_change rad (no creeping)."""
+    far from the root's, or turned by at least min_view_change rad (no creeping);
+    self_occlusion: the gain leaves out the rays the robot's own body blocks at the node
+    (`mapping.self_occlusion`: the self-filter drops those pixels, so they clear nothing)."""
 
     iterations: int = 40
     p_frontier: float = 0.4
@@ -60,6 +63,7 @@ class TreeConfig:
     gain_in_space: bool = True
     min_view_change: float = 0.1
     space_margin: float = -0.01
+    self_occlusion: bool = True
 
     def __post_init__(self) -> None:
         check_field_types(self, nonnegative_ints=True)
@@ -110,10 +114,11 @@ class ScoredTree:
 
 
 def grow_tree(world, ik, frontiers, points, outward: np.ndarray, config: TreeConfig,
-              rng: np.random.Generator, hinted: bool = False) -> JointTree:
-    """Grow a viewpoint tree from world.q on world.checker (see the module docstring);
-    hinted: the points are detector hints (sampled with p_hint instead of p_prior)."""
-    tree = JointTree(world.q, world.checker, capacity=config.capacity, step=config.step, res=config.res)
+              rng: np.random.Generator, hinted: bool = False, checker=None) -> JointTree:
+    """Grow a viewpoint tree from world.q on checker (default world.checker; see the module
+    docstring); hinted: the points are detector hints (sampled with p_hint instead of p_prior)."""
+    checker = world.checker if checker is None else checker
+    tree = JointTree(world.q, checker, capacity=config.capacity, step=config.step, res=config.res)
     sizes = np.array([c.size for c in frontiers], float)
     pf = sizes / sizes.sum() if len(sizes) else sizes
     pts = np.asarray(points, float).reshape(-1, 3)
@@ -146,8 +151,9 @@ def score_tree(world, tree: JointTree, K: np.ndarray, t_prev: np.ndarray | None,
     map G is counted on (default the world's)."""
     Q = tree.q.copy()
     T = world.kin.T_world_cam_batch(Q)
+    skip = robot_blocked_rays(world, Q, T, K, config.rays, config.gain_range) if config.self_occlusion else None
     G = info_gain_batch(gain_map if gain_map is not None else world.occ, T, K, config.gain_range,
-                        config.rays).astype(float)
+                        config.rays, skip_rays=skip).astype(float)
     t = T[:, :3, 3]
     D = momentum(t_prev, t[0], t) if t_prev is not None else np.zeros(len(Q))
     M = world.kin.manipulability_batch(Q)

@@ -22,6 +22,7 @@ import numpy as np
 
 from ..errors import CompassInputError, check_field_types, check_ranges
 from ..mapping.infogain import info_gain_batch
+from ..mapping.self_occlusion import robot_blocked_rays
 from ..mapping.occupancy import OccupancyMap, VoxelState
 from ..robot.model import Q_MAX, Q_MIN
 
@@ -40,7 +41,9 @@ class NFAConfig:
     min_motion [rad]: reachable candidates that move the wrist less than this are dropped;
     backoff [rad]: a candidate pulled back stops this far (largest joint change) before the
     first invalid state, so that it does not rest at the edge of unseen space that may turn
-    out occupied (the arm would then be stuck in a configuration its map calls invalid)"""
+    out occupied (the arm would then be stuck in a configuration its map calls invalid);
+    self_occlusion: the gain leaves out the rays the arm's own body blocks
+    (`mapping.self_occlusion`)"""
 
     enabled: bool = True
     wrist_range: float = 1.2
@@ -56,6 +59,7 @@ class NFAConfig:
     min_motion: float = 0.05
     backoff: float = 0.15
     scan_resolution: float = 0.02
+    self_occlusion: bool = True
 
     def __post_init__(self) -> None:
         check_field_types(self, nonnegative_ints=True)
@@ -120,13 +124,14 @@ def safe_box_map(occ: OccupancyMap, box_min: np.ndarray, box_max: np.ndarray, ou
 
 
 def nfa_step(world, q_body: np.ndarray, base_pos: np.ndarray, config: NFAConfig, K: np.ndarray,
-             rng: np.random.Generator, scratch: OccupancyMap | None = None):
-    """One greedy NFA step on the world model's current map.
+             rng: np.random.Generator, scratch: OccupancyMap | None = None, checker=None):
+    """One greedy NFA step on the world model's current map, its candidates checked on
+    checker (default world.checker).
 
     Returns (path (m, 7) or None, best gain [voxels], plans attempted, plans succeeded,
     scratch map for reuse). None when no valid, reachable candidate gains >= min_gain.
     """
-    checker = world.checker
+    checker = world.checker if checker is None else checker
     q_now = world.q
     Q = wrist_candidates(q_body, config.n_candidates, rng, config.wrist_range)
     Q = reachable_candidates(checker, q_now, Q, config.scan_resolution, config.min_motion,
@@ -136,7 +141,8 @@ def nfa_step(world, q_body: np.ndarray, base_pos: np.ndarray, config: NFAConfig,
     base = np.asarray(base_pos, float)
     scratch = safe_box_map(world.occ, base + config.safe_box_min, base + config.safe_box_max, scratch)
     T = world.kin.T_world_cam_batch(Q)
-    gains = info_gain_batch(scratch, T, K, config.max_range, config.rays)
+    skip = robot_blocked_rays(world, Q, T, K, config.rays, config.max_range) if config.self_occlusion else None
+    gains = info_gain_batch(scratch, T, K, config.max_range, config.rays, skip_rays=skip)
     order = np.argsort(-gains, kind="stable")
     attempted = succeeded = 0
     for i in order[: config.reach_tries]:

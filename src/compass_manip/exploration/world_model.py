@@ -193,6 +193,13 @@ def capped_field(checker: ValidityChecker, resolution: float) -> CappedDistance:
     return CappedDistance(resolution, int(math.ceil(checker.grid_cap_m(resolution) / resolution)) + 1)
 
 
+def guard_root_band(validity: ValidityConfig, resolution: float) -> float:
+    """[m] around the robot's spheres within which `WorldModel.guarded_checker` leaves the
+    guard's voxels to the checker's usual rule: its clearance (margin plus half a voxel
+    diagonal) and one voxel for the field's interpolation between voxel centres."""
+    return validity.margin + (math.sqrt(3) / 2 + 1.0) * resolution
+
+
 def start_shell(occ: OccupancyMap, spheres, q_start: np.ndarray, body_margin: float, free_margin: float,
                 task=None) -> np.ndarray:
     """(nx, ny, nz) bool: the start posture q_start (7,) [rad]'s spheres grown by body_margin
@@ -233,6 +240,9 @@ class WorldModel:
         self._to_touch: list[np.ndarray] = []  # executed paths not yet marked in it (marked when asked)
         self._untouched: np.ndarray | None = None
         self._anchor = ObstacleHalo(int(round(self.config.creep_anchor / self.occ.resolution)))  # near seen free
+        self._unsafe: np.ndarray | None = None  # the checker's unsafe mask
+        self._guarded: ValidityChecker | None = None
+        self._guard_field: CappedDistance | None = None
 
     def _mark_start_shell(self, task) -> None:
         self.swept |= start_shell(self.occ, self.spheres, self.q, self.config.start_body_margin,
@@ -241,7 +251,7 @@ class WorldModel:
 
     def observe(self, obs: Observation) -> None:
         integrate_observation(self.occ, obs, self.spheres, self.config.max_range)
-        self._checker = None
+        self._checker = self._guarded = None
         self._frontiers = None
         self._untouched = None
 
@@ -257,7 +267,7 @@ class WorldModel:
         mark_in_spheres(self.swept, self.occ.grid_min, self.occ.resolution, c[fresh], radii[fresh])
         self._marked = (c[-1].copy(), margin)
         self.q = np.asarray(path, dtype=np.float64).reshape(-1, 7)[-1].copy()
-        self._checker = None
+        self._checker = self._guarded = None
         if self.config.creep_guard:
             self._to_touch.append(np.asarray(path, dtype=np.float64).reshape(-1, 7).copy())
             self._untouched = None
@@ -282,12 +292,40 @@ class WorldModel:
         without the creep guard."""
         if not self.config.creep_guard:
             return False
+        return robot_covers_any(self.untouched, self.occ, self.spheres, self._touch_samples(path),
+                                self.config.touch_margin)
+
+    @property
+    def untouched(self) -> np.ndarray:
+        """(nx, ny, nz) bool: the unknown voxels a new motion may not cover under the creep
+        guard (not touched, not assumed free, farther than creep_anchor from seen free space)."""
         if self._untouched is None:
             self._untouched = (self.occ.state == VoxelState.UNKNOWN) & ~self.touched & ~self.assumed_free
             if self._anchor.r > 0:  # the seen free space's L1 halo, kept between map updates
                 self._untouched &= ~self._anchor.near(self.occ.state == VoxelState.FREE)
-        return robot_covers_any(self._untouched, self.occ, self.spheres, self._touch_samples(path),
-                                self.config.touch_margin)
+        return self._untouched
+
+    @property
+    def guarded_checker(self) -> ValidityChecker:
+        """`checker` with the creep guard's `untouched` voxels unsafe too, except those within
+        `guard_root_band` of the robot's spheres at the current configuration (the checker's
+        clearance, wider than touch_margin, would otherwise flag the configuration the arm
+        rests in): trees and scans grown on it keep to the motions the guard admits, up to
+        that band, and `creeps` still decides exactly. `checker` itself without the guard;
+        cached like it."""
+        if not self.config.creep_guard:
+            return self.checker
+        if self._guarded is None:
+            base = self.checker
+            near_q = np.zeros(self.occ.shape, bool)
+            mark_robot(near_q, self.occ, self.spheres, self.q[None], guard_root_band(self.config.validity,
+                                                                                    self.occ.resolution))
+            unsafe = self._unsafe | (self.untouched & ~near_q)
+            if self._guard_field is None:
+                self._guard_field = capped_field(self._base_checker, self.occ.resolution)
+            grid = DistanceGrid(self._guard_field.update(unsafe), self.occ.grid_min, self.occ.resolution)
+            self._guarded = base.with_grid(grid)
+        return self._guarded
 
     @property
     def checker(self) -> ValidityChecker:
@@ -298,7 +336,7 @@ class WorldModel:
                 self._halo = ObstacleHalo(int(round(self.config.obstacle_halo / self.occ.resolution)))
             safe = method_safe_voxels(self.occ, self.swept, self.assumed_free, self.config.obstacle_halo,
                                       self._halo.near)
-            unsafe = unsafe_mask(self.occ, safe_voxels=safe)
+            unsafe = self._unsafe = unsafe_mask(self.occ, safe_voxels=safe)
             if self._base_checker is None:  # packs the robot's spheres once (~15 ms); sizes the field's cap
                 self._base_checker = ValidityChecker(self.spheres, config=self.config.validity)
                 self._field = capped_field(self._base_checker, self.occ.resolution)

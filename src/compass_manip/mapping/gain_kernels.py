@@ -38,8 +38,9 @@ def _view_ray(R_world_cams, m, dirs_cam, r, ox, oy, oz, gx, gy, gz, max_range, i
 
 
 @njit(cache=True, inline="always")
-def _views(gains, w, n_workers, state, stamps, last, origins, R_world_cams, dirs_cam, max_range, k0, res):
-    """Gains of views w, w + n_workers, ... with worker w's stamp grid."""
+def _views(gains, w, n_workers, state, stamps, last, origins, R_world_cams, dirs_cam, max_range, k0, res, skip):
+    """Gains of views w, w + n_workers, ... with worker w's stamp grid (rays r of view m with
+    skip[m, r] not cast)."""
     nx, ny, nz = state.shape
     st = state.reshape(-1)
     inv_res = 1.0 / res
@@ -62,6 +63,8 @@ def _views(gains, w, n_workers, state, stamps, last, origins, R_world_cams, dirs
         gz = oz * inv_res - k0[2]
         count = 0
         for r in range(n_rays):
+            if skip[m, r]:
+                continue
             ok, ix, iy, iz, sx, sy, sz, tmx, tmy, tmz, tdx, tdy, tdz, n_steps = _view_ray(
                 R_world_cams, m, dirs_cam, r, ox, oy, oz, gx, gy, gz, max_range, inv_res, k0, nx, ny, nz
             )
@@ -106,18 +109,18 @@ def _views(gains, w, n_workers, state, stamps, last, origins, R_world_cams, dirs
 
 
 @njit(cache=True)
-def info_gain_serial(state, stamps, last, origins, R_world_cams, dirs_cam, max_range, k0, res):
+def info_gain_serial(state, stamps, last, origins, R_world_cams, dirs_cam, max_range, k0, res, skip):
     gains = np.zeros(origins.shape[0], np.int64)
-    _views(gains, 0, 1, state, stamps, last, origins, R_world_cams, dirs_cam, max_range, k0, res)
+    _views(gains, 0, 1, state, stamps, last, origins, R_world_cams, dirs_cam, max_range, k0, res, skip)
     return gains
 
 
 @njit(cache=True, parallel=True)
-def info_gain_parallel(state, stamps, last, origins, R_world_cams, dirs_cam, max_range, k0, res):
+def info_gain_parallel(state, stamps, last, origins, R_world_cams, dirs_cam, max_range, k0, res, skip):
     gains = np.zeros(origins.shape[0], np.int64)
     n_workers = stamps.shape[0]
     for w in prange(n_workers):
-        _views(gains, w, n_workers, state, stamps, last, origins, R_world_cams, dirs_cam, max_range, k0, res)
+        _views(gains, w, n_workers, state, stamps, last, origins, R_world_cams, dirs_cam, max_range, k0, res, skip)
     return gains
 
 
@@ -138,8 +141,9 @@ def fill_view_grids(state, grids):
 
 
 @njit(cache=True, inline="always")
-def _views_padded(gains, w, n_workers, grids, shape, origins, R_world_cams, dirs_cam, max_range, k0, res):
-    """Gains of views w, w + n_workers, ... on worker w's padded view grid."""
+def _views_padded(gains, w, n_workers, grids, shape, origins, R_world_cams, dirs_cam, max_range, k0, res, skip):
+    """Gains of views w, w + n_workers, ... on worker w's padded view grid (rays r of view m
+    with skip[m, r] not cast)."""
     nx, ny, nz = shape[0], shape[1], shape[2]
     g = grids[w].reshape(-1)
     py = ny + 2
@@ -165,6 +169,8 @@ def _views_padded(gains, w, n_workers, grids, shape, origins, R_world_cams, dirs
         gz = oz * inv_res - k0[2]
         count = 0
         for r in range(n_rays):
+            if skip[m, r]:
+                continue
             ok, ix, iy, iz, sx, sy, sz, tmx, tmy, tmz, tdx, tdy, tdz, n_steps = _view_ray(
                 R_world_cams, m, dirs_cam, r, ox, oy, oz, gx, gy, gz, max_range, inv_res, k0, nx, ny, nz
             )
@@ -197,9 +203,9 @@ def _views_padded(gains, w, n_workers, grids, shape, origins, R_world_cams, dirs
 
 
 @njit(cache=True, parallel=True)
-def info_gain_grids_parallel(grids, shape, origins, R_world_cams, dirs_cam, max_range, k0, res):
+def info_gain_grids_parallel(grids, shape, origins, R_world_cams, dirs_cam, max_range, k0, res, skip):
     gains = np.zeros(origins.shape[0], np.int64)
     n_workers = grids.shape[0]
     for w in prange(n_workers):
-        _views_padded(gains, w, n_workers, grids, shape, origins, R_world_cams, dirs_cam, max_range, k0, res)
+        _views_padded(gains, w, n_workers, grids, shape, origins, R_world_cams, dirs_cam, max_range, k0, res, skip)
     return gains

@@ -74,14 +74,24 @@ def info_gain_batch(
     max_range: float,
     rays: tuple[int, int] = (40, 30),
     image_size: tuple[int, int] | None = None,
+    skip_rays: np.ndarray | None = None,
 ) -> np.ndarray:
-    """Information gain (M,) int64 of M camera poses T_world_cams (M, 4, 4), in parallel."""
+    """Information gain (M,) int64 of M camera poses T_world_cams (M, 4, 4), in parallel.
+    skip_rays (M, nu * nv) bool: rays not cast (in `camera_ray_directions`' order), e.g. those
+    the robot's own body blocks (`self_occlusion.self_blocked_rays`)."""
     instance_of(occ_map, OccupancyMap, "occ_map")
     Ts = _check_poses(T_world_cams)
     max_range = real_number(max_range, "max_range", "a finite number > 0 [m]")
     if not max_range > 0.0:
         raise CompassInputError(f"max_range {max_range} m is not allowed; use a finite value > 0 [m]")
     dirs = camera_ray_directions(K, rays, image_size)
+    if skip_rays is None:
+        skip = np.zeros((len(Ts), len(dirs)), np.bool_)
+    else:
+        skip = np.ascontiguousarray(skip_rays, dtype=np.bool_)
+        if skip.shape != (len(Ts), len(dirs)):
+            raise CompassInputError(f"skip_rays has shape {skip.shape}; ({len(Ts)}, {len(dirs)}) is required "
+                                    "(views, rays)")
     n_workers = numba.get_num_threads()
     origins = np.ascontiguousarray(Ts[:, :3, 3])
     R = np.ascontiguousarray(Ts[:, :3, :3])
@@ -90,12 +100,12 @@ def info_gain_batch(
         grids = _scratch(occ_map, "grids", (n_workers,) + tuple(n + 2 for n in occ_map.shape))
         gain_kernels.fill_view_grids(occ_map.state, grids)
         return gain_kernels.info_gain_grids_parallel(
-            grids, np.asarray(occ_map.shape, np.int64), origins, R, dirs, float(max_range), k0, res
+            grids, np.asarray(occ_map.shape, np.int64), origins, R, dirs, float(max_range), k0, res, skip
         )
     stamps = _scratch(occ_map, "stamps", (n_workers, occ_map.state.size))
     last = _scratch(occ_map, "last", (n_workers,), np.int64)
     kernel = gain_kernels.info_gain_parallel if n_workers > 1 and len(Ts) >= 4 else gain_kernels.info_gain_serial
-    return kernel(occ_map.state, stamps, last, origins, R, dirs, float(max_range), k0, res)
+    return kernel(occ_map.state, stamps, last, origins, R, dirs, float(max_range), k0, res, skip)
 
 
 def _check_K(K: np.ndarray, image_size=None) -> np.ndarray:
