@@ -65,6 +65,13 @@
 * base_looks_far: base_looks_wide with eye points in a larger box around the base (x -0.1..0.7,
   |y| <= 0.5, z 0.5..1.2 m), 0.25-1.2 m away.
 * base_looks_way: base_looks_wide with the eye points where the camera has been (next to the way moved).
+* find_only_swept3 / find_only_guard0 / find_only_no_creep_guard / find_only_anchor4: find_only with
+  the world model's swept margin, creep guard or its anchor changed (`find_only_world`).
+* find_only_tree_on_guard / find_only_scan_on_guard / find_only_no_self_occlusion: find_only with the
+  tree or the near-field candidates on the guarded checker, or the gains through the arm's own
+  body as before 2026-11-25 (`find_only_method`; docs/compass_loop.md, "The gain and the arm's own body").
+* scan_self_occlusion: the defaults with the grasp stage's near-field scan's gain leaving out the rays
+  the arm's own body blocks (`TrialScanConfig.self_occlusion`).
 """
 from __future__ import annotations
 
@@ -562,3 +569,60 @@ def find_only_anchor4_config() -> TrialConfig:
 
 def find_only_anchor4(spec) -> tuple[dict, dict]:
     return _run(spec, find_only_anchor4_config())
+
+
+def find_only_method(**changes) -> TrialConfig:
+    """find-only COMPASS with these `CompassConfig` fields changed."""
+    return TrialConfig(method=replace(CompassConfig(), **changes), grasp=GraspTrialConfig(enabled=False))
+
+
+def find_only_tree_on_guard_config() -> TrialConfig:
+    """find-only with the viewpoint tree grown on the guarded checker (`CompassConfig.tree_on_guard`;
+    docs/compass_loop.md, "The gain and the arm's own body")."""
+    return find_only_method(tree_on_guard=True)
+
+
+def find_only_tree_on_guard(spec) -> tuple[dict, dict]:
+    return _run(spec, find_only_tree_on_guard_config())
+
+
+def find_only_scan_on_guard_config() -> TrialConfig:
+    """find-only with the near-field candidates pulled back on the guarded checker
+    (`CompassConfig.scan_on_guard`)."""
+    return find_only_method(scan_on_guard=True)
+
+
+def find_only_scan_on_guard(spec) -> tuple[dict, dict]:
+    return _run(spec, find_only_scan_on_guard_config())
+
+
+def find_only_no_self_occlusion_config() -> TrialConfig:
+    """find-only with the gains counting the rays the arm's own body blocks, as before 2026-11-25
+    (`TreeConfig.self_occlusion`, `NFAConfig.self_occlusion`)."""
+    c = CompassConfig()
+    return find_only_method(tree=replace(c.tree, self_occlusion=False), nfa=replace(c.nfa, self_occlusion=False))
+
+
+def find_only_no_self_occlusion(spec) -> tuple[dict, dict]:
+    return _run(spec, find_only_no_self_occlusion_config())
+
+
+def scan_self_occlusion_config() -> TrialConfig:
+    """The defaults with the grasp stage's near-field scan scoring its candidates without the rays
+    the arm's own body blocks (`TrialScanConfig.self_occlusion`)."""
+    t = TrialConfig()
+    return replace(t, grasp=replace(t.grasp, scan=replace(t.grasp.scan, self_occlusion=True)))
+
+
+def scan_self_occlusion(spec) -> tuple[dict, dict]:
+    return _run(spec, scan_self_occlusion_config())
+
+
+def find_only_screen20_config() -> TrialConfig:
+    """find-only with up to 20 of the best nodes screened against the creep guard before planning
+    (`CompassConfig.guard_screen`)."""
+    return find_only_method(guard_screen=20)
+
+
+def find_only_screen20(spec) -> tuple[dict, dict]:
+    return _run(spec, find_only_screen20_config())

@@ -182,3 +182,34 @@ def test_motions_valid_on_the_guarded_checker_creep_only_near_where_the_arm_rest
             Q = densify(path, 0.01)
             assert not robot_covers_any(outside_band, wm.occ, wm.spheres, Q, wm.config.touch_margin)
     assert valid > 5  # the band leaves room to move (the test is not vacuous)
+
+
+def test_the_guard_screen_keeps_the_best_nodes_the_guard_admits_in_order():
+    from types import SimpleNamespace
+    from compass_manip.exploration.compass import CompassConfig, CompassMethod
+    from compass_manip.motion.tree import JointTree
+    from compass_manip.robot.model import Q_MAX, Q_MIN
+    wm = WorldModel(Q_HOME)
+    for path in shoulder_steps(Q_HOME, 20):  # executed (as without the guard): the swept margin
+        if not wm.checker.path_valid(path, 0.01):  # outgrows what was touched
+            break
+        wm.add_swept(path)
+    tree = JointTree(wm.q, wm.checker, capacity=400, step=0.05, res=0.005)  # on the checker, as the tree grows
+    rng = np.random.default_rng(2)
+    for _ in range(300):
+        tree.extend(np.clip(wm.q + rng.uniform(-0.3, 0.3, 7), Q_MIN, Q_MAX))
+    assert tree.count > 30
+    order = np.arange(1, tree.count)
+    rng.shuffle(order)  # any utility order
+    config = replace(CompassConfig(), guard_screen=60)
+    method = SimpleNamespace(world=wm, config=config)
+    stats = {}
+    kept = CompassMethod._guard_screened(method, SimpleNamespace(tree=tree), order, stats)
+    creeping = [int(k) for k in order[:60] if wm.creeps(tree.path_to(int(k)))]
+    admitted = [int(k) for k in order[:60] if int(k) not in creeping]
+    assert creeping and admitted  # both kinds among the 60 best
+    assert not any(wm.creeps(tree.path_to(int(k))) for k in kept)
+    # the best admitted nodes, in utility order, max_attempts of them; every node passed over crept
+    assert list(kept) == admitted[: config.max_attempts]
+    tested = list(order[: list(order).index(kept[-1]) + 1])
+    assert stats["creep_screened"] == sum(int(k) in creeping for k in tested)

@@ -41,7 +41,10 @@ class CompassConfig:
     tree_on_guard / scan_on_guard: grow the tree and shortcut its paths / pull the near-field
     candidates back on `WorldModel.guarded_checker` (the creep guard's voxels unsafe), so
     that the views offered are those the guard admits (False: on the checker, the guard
-    refusing paths afterwards)."""
+    refusing paths afterwards); guard_screen: before planning, test up to this many of the
+    best nodes' tree paths against the creep guard and plan only to those it admits, and pass
+    over near-field candidates it refuses the same way (0: off; the guard then refuses planned
+    paths, each a failed plan)."""
 
     world: WorldModelConfig = field(default_factory=WorldModelConfig)
     nfa: NFAConfig = field(default_factory=NFAConfig)
@@ -55,12 +58,13 @@ class CompassConfig:
     escape: EscapeConfig = field(default_factory=EscapeConfig)
     near_field_unsafe: bool = True
     tree_on_guard: bool = False
+    guard_screen: int = 0
     scan_on_guard: bool = False
 
     def __post_init__(self) -> None:
         check_field_types(self, nonnegative_ints=True)
         check_ranges(self, verify_resolution=(1e-4, 0.5, "rad"), prior_inset=(-0.5, 0.5, "m"),
-                     max_attempts=(1, 1000, ""), retry_iterations_factor=(1, 100, ""))
+                     max_attempts=(1, 1000, ""), retry_iterations_factor=(1, 100, ""), guard_screen=(0, 100000, ""))
 
 
 def near_field_world(config: CompassConfig) -> WorldModelConfig:
@@ -177,7 +181,7 @@ class CompassMethod:
         if self.config.nfa.enabled:
             path, gain, att, ok, self._scratch = nfa_step(self.world, self.world.q, np.asarray(self.task.robot_base_pos),
                                                           self.config.nfa, self.K, self.rng, self._scratch,
-                                                          self._scan_checker)
+                                                          self._scan_checker, self.config.guard_screen > 0)
         att, ok = att + stuck.plans_attempted, ok + stuck.plans_succeeded
         stats = {**stuck.stats, "rescan_gain": gain}
         if path is None and self.history:
@@ -205,7 +209,8 @@ class CompassMethod:
         if self.nfa_views >= config.max_views:
             return None
         path, gain, att, ok, self._scratch = nfa_step(self.world, self.q_body, np.asarray(self.task.robot_base_pos),
-                                                      config, self.K, self.rng, self._scratch, self._scan_checker)
+                                                      config, self.K, self.rng, self._scratch, self._scan_checker,
+                                                      self.config.guard_screen > 0)
         if path is None:
             return None
         self.nfa_views += 1
@@ -246,16 +251,23 @@ class CompassMethod:
             return Decision(None, stop, Phase.EXPLORE, stats=stats, debug=tree_debug(scored))
         checker = self._tree_checker
         order = np.argsort(-scored.U, kind="stable")
+        order = order[np.isfinite(scored.U[order])]
+        if config.guard_screen:
+            order = self._guard_screened(scored, order, stats)
+            if len(order) == 0:
+                attempted = 1  # a view was asked for and none the guard admits was found: a failed plan
         for k in order[: config.max_attempts]:
-            if not np.isfinite(scored.U[k]):
-                break
             attempted += 1
-            path = validated_path(scored.tree.path_to(int(k)), checker, config.verify_resolution)
+            raw = scored.tree.path_to(int(k))
+            path = validated_path(raw, checker, config.verify_resolution)
             if path is None:
                 continue
             if self.world.creeps(path):  # into unknown space the arm has not covered (`world_model`)
-                stats["creep_rejected"] = stats.get("creep_rejected", 0) + 1
-                continue
+                if config.guard_screen and path is not raw and checker.path_valid(raw, config.verify_resolution):
+                    path = raw  # the shortcut crept; the screened tree path does not
+                else:
+                    stats["creep_rejected"] = stats.get("creep_rejected", 0) + 1
+                    continue
             succeeded += 1
             self.t_prev = scored.T_world_cam[0, :3, 3].copy()
             stats.update(node=int(k), G=float(scored.G[k]), D=float(scored.D[k]), M=float(scored.M[k]),
@@ -264,6 +276,21 @@ class CompassMethod:
                             debug=tree_debug(scored, int(k)))
         return Decision(None, StopReason.PLANNING_FAILED, Phase.EXPLORE, attempted, succeeded, stats=stats,
                         debug=tree_debug(scored))
+
+
+    def _guard_screened(self, scored, order: np.ndarray, stats: dict) -> np.ndarray:
+        """The nodes of order (best first) whose tree paths the creep guard admits, tested
+        until max_attempts of them are found or guard_screen nodes were tested: views the
+        method may not go to are not planned to (`CompassConfig.guard_screen`)."""
+        keep = []
+        for k in order[: self.config.guard_screen]:
+            if self.world.creeps(scored.tree.path_to(int(k))):
+                stats["creep_screened"] = stats.get("creep_screened", 0) + 1
+            else:
+                keep.append(int(k))
+                if len(keep) >= self.config.max_attempts:
+                    break
+        return np.asarray(keep, dtype=np.int64)
 
 
 def tree_debug(scored, chosen: int | None = None) -> dict:

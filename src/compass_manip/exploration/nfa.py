@@ -124,9 +124,10 @@ def safe_box_map(occ: OccupancyMap, box_min: np.ndarray, box_max: np.ndarray, ou
 
 
 def nfa_step(world, q_body: np.ndarray, base_pos: np.ndarray, config: NFAConfig, K: np.ndarray,
-             rng: np.random.Generator, scratch: OccupancyMap | None = None, checker=None):
+             rng: np.random.Generator, scratch: OccupancyMap | None = None, checker=None, screen: bool = False):
     """One greedy NFA step on the world model's current map, its candidates checked on
-    checker (default world.checker).
+    checker (default world.checker). screen: a candidate whose motion the creep guard refuses
+    is passed over before it is planned (no attempt), not refused after.
 
     Returns (path (m, 7) or None, best gain [voxels], plans attempted, plans succeeded,
     scratch map for reuse). None when no valid, reachable candidate gains >= min_gain.
@@ -144,7 +145,7 @@ def nfa_step(world, q_body: np.ndarray, base_pos: np.ndarray, config: NFAConfig,
     skip = robot_blocked_rays(world, Q, T, K, config.rays, config.max_range) if config.self_occlusion else None
     gains = info_gain_batch(scratch, T, K, config.max_range, config.rays, skip_rays=skip)
     order = np.argsort(-gains, kind="stable")
-    attempted = succeeded = 0
+    attempted = succeeded = screened = 0
     for i in order[: config.reach_tries]:
         if gains[i] < config.min_gain:
             break
@@ -156,9 +157,14 @@ def nfa_step(world, q_body: np.ndarray, base_pos: np.ndarray, config: NFAConfig,
             if len(fine) == 0:
                 continue
             q_goal = fine[0]
-        attempted += 1
         path = np.stack([q_now, q_goal])
+        if screen and world.creeps(path):
+            screened += 1
+            continue
+        attempted += 1
         if checker.edge_valid(q_now, q_goal, config.edge_resolution) and not world.creeps(path):
             succeeded += 1
             return path, int(gains[i]), attempted, succeeded, scratch
+    if screened and not attempted:
+        attempted = 1  # the step was asked for and no motion to a view worth taking was found
     return None, int(gains[order[0]]), attempted, succeeded, scratch

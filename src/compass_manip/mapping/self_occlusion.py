@@ -62,8 +62,8 @@ def _blocked(origins, R, dirs_cam, centres, radii, max_range, cos_fov, out):
 
 
 def self_blocked_rays(T_world_cams: np.ndarray, K: np.ndarray, rays: tuple[int, int], centres: np.ndarray,
-                      radii: np.ndarray, max_range: float) -> np.ndarray:
-    """(M, nu * nv) bool: the rays (`infogain.camera_ray_directions(K, rays)`, in its order) of
+                      radii: np.ndarray, max_range: float, image_size: tuple[int, int] | None = None) -> np.ndarray:
+    """(M, nu * nv) bool: the rays (`infogain.camera_ray_directions(K, rays, image_size)`, in its order) of
     the views T_world_cams (M, 4, 4) that meet the robot's spheres (centres (M, S, 3) [m] at
     each view's configuration, radii (S,) [m]) within max_range [m] (module doc)."""
     Ts = np.asarray(T_world_cams, dtype=np.float64)
@@ -76,7 +76,7 @@ def self_blocked_rays(T_world_cams: np.ndarray, K: np.ndarray, rays: tuple[int, 
     max_range = real_number(max_range, "max_range", "a finite number > 0 [m]")
     if not max_range > 0:
         raise CompassInputError(f"max_range {max_range} m is not allowed; use a finite value > 0 [m]")
-    dirs = camera_ray_directions(K, rays)
+    dirs = camera_ray_directions(K, rays, image_size)
     out = np.zeros((len(Ts), len(dirs)), np.bool_)
     if len(Ts) and len(r):
         _blocked(np.ascontiguousarray(Ts[:, :3, 3]), np.ascontiguousarray(Ts[:, :3, :3]), dirs,
@@ -85,9 +85,9 @@ def self_blocked_rays(T_world_cams: np.ndarray, K: np.ndarray, rays: tuple[int, 
 
 
 def robot_blocked_rays(world, Q: np.ndarray, T_world_cams: np.ndarray, K: np.ndarray, rays: tuple[int, int],
-                       max_range: float) -> np.ndarray:
+                       max_range: float, image_size: tuple[int, int] | None = None) -> np.ndarray:
     """`self_blocked_rays` of the views T_world_cams (M, 4, 4) of the world model's robot at
     the configurations Q (M, 7) [rad], its spheres grown by the self-filter's margin."""
     Q = np.asarray(Q, dtype=np.float64).reshape(-1, 7)
     return self_blocked_rays(T_world_cams, K, rays, world.spheres.sphere_centers(Q),
-                             np.asarray(world.spheres.radii, float) + SELF_FILTER_MARGIN, max_range)
+                             np.asarray(world.spheres.radii, float) + SELF_FILTER_MARGIN, max_range, image_size)

@@ -29,6 +29,7 @@ from ..exploration.world_model import method_safe_voxels
 from ..mapping.distance import unsafe_mask
 from ..mapping.infogain import info_gain_batch
 from ..mapping.occupancy import VoxelState
+from ..mapping.self_occlusion import robot_blocked_rays
 from ..motion.planner import DEFAULT_MAX_CHECKS, PlannerConfig, plan
 from ..motion.primitives import DistanceGrid
 from ..motion.validity import ValidityChecker
@@ -57,7 +58,9 @@ class TrialScanConfig:
     back_eye [m] in front of the base), solved by camera IK and kept, like the others, when valid
     for the scan's checker (0: none); return_back: when the scan ends, the arm first goes back
     along the scan's own paths to where the scan started (`NearFieldScanner.way_back`: a look
-    back leaves the arm folded towards the base, from where the grasp's transfer seldom plans)."""
+    back leaves the arm folded towards the base, from where the grasp's transfer seldom plans);
+    self_occlusion: the gain leaves out the rays the arm's own body blocks at each candidate
+    (`mapping.self_occlusion`; off by default: measured in docs/grasping_log.md)."""
 
     max_views: int = 8
     min_gain: int = 40
@@ -73,6 +76,7 @@ class TrialScanConfig:
     return_back: bool = False
     back_band: tuple[tuple[float, float, float], tuple[float, float, float]] = ((-0.1, 0.15, 0.3), (0.35, 0.45, 0.8))
     back_eye: tuple[tuple[float, float, float], tuple[float, float, float]] = ((0.25, -0.35, 0.55), (0.6, 0.35, 1.05))
+    self_occlusion: bool = False
 
     def __post_init__(self) -> None:
         check_field_types(self, nonnegative_ints=True)
@@ -189,8 +193,10 @@ class NearFieldScanner:
             hi = np.clip(occ.world_to_voxel((pts.max(0) + self.config.target_margin)[None])[0] + 1, 0, occ.shape)
             sl = tuple(slice(a, b) for a, b in zip(lo, hi))
             self._scratch.state[sl] = occ.state[sl]
-        gains = info_gain_batch(self._scratch, self.wm.kin.T_world_cam_batch(Q), self.K, c.max_range, c.rays,
-                                self.image_size)
+        T = self.wm.kin.T_world_cam_batch(Q)
+        skip = robot_blocked_rays(self.wm, Q, T, self.K, c.rays, c.max_range, self.image_size) \
+            if self.config.self_occlusion else None
+        gains = info_gain_batch(self._scratch, T, self.K, c.max_range, c.rays, self.image_size, skip_rays=skip)
         order = np.argsort(-gains, kind="stable")
         order = order[gains[order] >= self.config.min_gain][: self.config.n_goals]
         if len(order) == 0:
