@@ -277,7 +277,6 @@ class CompassMethod:
         return Decision(None, StopReason.PLANNING_FAILED, Phase.EXPLORE, attempted, succeeded, stats=stats,
                         debug=tree_debug(scored))
 
-
     def _guard_screened(self, scored, order: np.ndarray, stats: dict) -> np.ndarray:
         """The nodes of order (best first) whose tree paths the creep guard admits, tested
         until max_attempts of them are found or guard_screen nodes were tested: views the
