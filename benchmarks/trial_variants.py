@@ -70,6 +70,9 @@
 * find_only_tree_on_guard / find_only_scan_on_guard / find_only_no_self_occlusion: find_only with the
   tree or the near-field candidates on the guarded checker, or the gains through the arm's own
   body as before 2026-11-25 (`find_only_method`; docs/compass_loop.md, "The gain and the arm's own body").
+* find_only_screen20 / find_only_front: find_only with the creep guard screening the best nodes and
+  near-field candidates before planning (`CompassConfig.guard_screen`), or the fallback gain counted
+  in the box in front of the base (`CompassConfig.fallback_box`).
 * scan_self_occlusion: the defaults with the grasp stage's near-field scan's gain leaving out the rays
   the arm's own body blocks (`TrialScanConfig.self_occlusion`).
 """
@@ -626,3 +629,14 @@ def find_only_screen20_config() -> TrialConfig:
 
 def find_only_screen20(spec) -> tuple[dict, dict]:
     return _run(spec, find_only_screen20_config())
+
+
+def find_only_front_config() -> TrialConfig:
+    """find-only with the fallback gain (no gain in the confined space from the tree) counted in the box
+    in front of the base, x 0..1.2 m, |y| <= 0.6 m, z 0..1.15 m from the base (`CompassConfig.fallback_box`),
+    instead of on all unknown voxels."""
+    return find_only_method(fallback_box=((0.0, -0.6, 0.0), (1.2, 0.6, 1.15)))
+
+
+def find_only_front(spec) -> tuple[dict, dict]:
+    return _run(spec, find_only_front_config())

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ..errors import check_field_types, check_ranges
+from ..errors import CompassInputError, check_field_types, check_ranges
 from ..robot.ik import PandaIK
 from ..robot.model import RobotConfig
 from ..task import Task
@@ -44,7 +44,9 @@ class CompassConfig:
     refusing paths afterwards); guard_screen: before planning, test up to this many of the
     best nodes' tree paths against the creep guard and plan only to those it admits, and pass
     over near-field candidates it refuses the same way (0: off; the guard then refuses planned
-    paths, each a failed plan)."""
+    paths, each a failed plan); fallback_box ((min), (max)) [m] relative to the base: when the
+    confined space offers no gain from the tree, count the unknown voxels of this box (seen
+    obstacles outside it still stop the rays) instead of all unknown voxels (None)."""
 
     world: WorldModelConfig = field(default_factory=WorldModelConfig)
     nfa: NFAConfig = field(default_factory=NFAConfig)
@@ -59,12 +61,21 @@ class CompassConfig:
     near_field_unsafe: bool = True
     tree_on_guard: bool = False
     guard_screen: int = 0
+    fallback_box: tuple[tuple[float, float, float], tuple[float, float, float]] | None = None
     scan_on_guard: bool = False
 
     def __post_init__(self) -> None:
         check_field_types(self, nonnegative_ints=True)
         check_ranges(self, verify_resolution=(1e-4, 0.5, "rad"), prior_inset=(-0.5, 0.5, "m"),
                      max_attempts=(1, 1000, ""), retry_iterations_factor=(1, 100, ""), guard_screen=(0, 100000, ""))
+        if self.fallback_box is not None:
+            try:
+                box = np.asarray(self.fallback_box, dtype=float)
+            except (TypeError, ValueError):
+                box = None
+            if box is None or box.shape != (2, 3) or not np.isfinite(box).all() or not (box[0] < box[1]).all():
+                raise CompassInputError(f"CompassConfig.fallback_box = {self.fallback_box!r:.60} is not allowed; "
+                                        "use None or ((x, y, z) min, (x, y, z) max) [m] with min < max")
 
 
 def near_field_world(config: CompassConfig) -> WorldModelConfig:
@@ -114,6 +125,7 @@ class CompassMethod:
         self.phase = Phase.NFA if config.nfa.enabled and config.nfa.max_views > 0 else Phase.EXPLORE
         self._scratch = None
         self._gain_map = None
+        self._fallback = None
         self._checker_ms = 0.0
         self.history: list[np.ndarray] = []  # executed paths, for backtracking
         self._backtracking = False
@@ -240,7 +252,8 @@ class CompassMethod:
             if np.isfinite(scored.U).any():
                 break
             if gain_map is not None:  # nothing new inside the space from here: open up the near field
-                scored = score_tree(self.world, tree, self.K, self.t_prev, points, config.weights, tree_cfg)
+                scored = score_tree(self.world, tree, self.K, self.t_prev, points, config.weights, tree_cfg,
+                                    self._fallback_map())
                 if np.isfinite(scored.U).any():
                     gain_scope = "all"
                     break
@@ -276,6 +289,16 @@ class CompassMethod:
                             debug=tree_debug(scored, int(k)))
         return Decision(None, StopReason.PLANNING_FAILED, Phase.EXPLORE, attempted, succeeded, stats=stats,
                         debug=tree_debug(scored))
+
+    def _fallback_map(self):
+        """The map the fallback gain is counted on: the world's, or its unknown voxels in
+        `CompassConfig.fallback_box` only."""
+        if self.config.fallback_box is None:
+            return None
+        base = np.asarray(self.task.robot_base_pos, float)
+        lo, hi = np.asarray(self.config.fallback_box, float)
+        self._fallback = safe_box_map(self.world.occ, base + lo, base + hi, self._fallback, keep_occupied=True)
+        return self._fallback
 
     def _guard_screened(self, scored, order: np.ndarray, stats: dict) -> np.ndarray:
         """The nodes of order (best first) whose tree paths the creep guard admits, tested
