@@ -275,7 +275,8 @@ class CompassMethod:
             path = validated_path(raw, checker, config.verify_resolution)
             if path is None:
                 continue
-            if self.world.creeps(path):  # into unknown space the arm has not covered (`world_model`)
+            if not (config.guard_screen and path is raw) and self.world.creeps(path):  # into unknown space
+                # the arm has not covered (`world_model`); a screened raw tree path was tested already
                 if config.guard_screen and path is not raw and checker.path_valid(raw, config.verify_resolution):
                     path = raw  # the shortcut crept; the screened tree path does not
                 else:

@@ -19,8 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import CompassInputError, check_field_types, check_ranges
-from ..mapping.infogain import info_gain_batch
-from ..mapping.self_occlusion import robot_blocked_rays
+from ..mapping.self_occlusion import robot_view_gains
 from ..motion.tree import JointTree
 from ..robot.model import Q_MAX, Q_MIN
 from .utility import heuristic, momentum, utility
@@ -151,9 +150,8 @@ def score_tree(world, tree: JointTree, K: np.ndarray, t_prev: np.ndarray | None,
     map G is counted on (default the world's)."""
     Q = tree.q.copy()
     T = world.kin.T_world_cam_batch(Q)
-    skip = robot_blocked_rays(world, Q, T, K, config.rays, config.gain_range) if config.self_occlusion else None
-    G = info_gain_batch(gain_map if gain_map is not None else world.occ, T, K, config.gain_range,
-                        config.rays, skip_rays=skip).astype(float)
+    G = robot_view_gains(world, gain_map if gain_map is not None else world.occ, Q, T, K, config.gain_range,
+                         config.rays, self_occlusion=config.self_occlusion).astype(float)
     t = T[:, :3, 3]
     D = momentum(t_prev, t[0], t) if t_prev is not None else np.zeros(len(Q))
     M = world.kin.manipulability_batch(Q)

@@ -21,8 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import CompassInputError, check_field_types, check_ranges
-from ..mapping.infogain import info_gain_batch
-from ..mapping.self_occlusion import robot_blocked_rays
+from ..mapping.self_occlusion import robot_view_gains
 from ..mapping.occupancy import OccupancyMap, VoxelState
 from ..robot.model import Q_MAX, Q_MIN
 
@@ -142,8 +141,8 @@ def nfa_step(world, q_body: np.ndarray, base_pos: np.ndarray, config: NFAConfig,
     base = np.asarray(base_pos, float)
     scratch = safe_box_map(world.occ, base + config.safe_box_min, base + config.safe_box_max, scratch)
     T = world.kin.T_world_cam_batch(Q)
-    skip = robot_blocked_rays(world, Q, T, K, config.rays, config.max_range) if config.self_occlusion else None
-    gains = info_gain_batch(scratch, T, K, config.max_range, config.rays, skip_rays=skip)
+    gains = robot_view_gains(world, scratch, Q, T, K, config.max_range, config.rays,
+                             self_occlusion=config.self_occlusion)
     order = np.argsort(-gains, kind="stable")
     attempted = succeeded = screened = 0
     for i in order[: config.reach_tries]:
@@ -162,7 +161,7 @@ def nfa_step(world, q_body: np.ndarray, base_pos: np.ndarray, config: NFAConfig,
             screened += 1
             continue
         attempted += 1
-        if checker.edge_valid(q_now, q_goal, config.edge_resolution) and not world.creeps(path):
+        if checker.edge_valid(q_now, q_goal, config.edge_resolution) and (screen or not world.creeps(path)):
             succeeded += 1
             return path, int(gains[i]), attempted, succeeded, scratch
     if screened and not attempted:

@@ -22,7 +22,7 @@ import numpy as np
 from numba import njit, prange
 
 from ..errors import CompassInputError, real_number
-from .infogain import camera_ray_directions
+from .infogain import camera_ray_directions, info_gain_batch
 from .observe import SELF_FILTER_MARGIN
 
 
@@ -91,3 +91,13 @@ def robot_blocked_rays(world, Q: np.ndarray, T_world_cams: np.ndarray, K: np.nda
     Q = np.asarray(Q, dtype=np.float64).reshape(-1, 7)
     return self_blocked_rays(T_world_cams, K, rays, world.spheres.sphere_centers(Q),
                              np.asarray(world.spheres.radii, float) + SELF_FILTER_MARGIN, max_range, image_size)
+
+
+def robot_view_gains(world, occ, Q: np.ndarray, T_world_cams: np.ndarray, K: np.ndarray, max_range: float,
+                     rays: tuple[int, int], image_size: tuple[int, int] | None = None,
+                     self_occlusion: bool = True) -> np.ndarray:
+    """`infogain.info_gain_batch` (M,) on occ of the views T_world_cams (M, 4, 4) of the world
+    model's robot at Q (M, 7) [rad], without the rays its own body blocks (`robot_blocked_rays`)
+    when self_occlusion."""
+    skip = robot_blocked_rays(world, Q, T_world_cams, K, rays, max_range, image_size) if self_occlusion else None
+    return info_gain_batch(occ, T_world_cams, K, max_range, rays, image_size, skip_rays=skip)

@@ -27,9 +27,8 @@ from ..exploration.nfa import safe_box_map
 from ..exploration.viewpoints import view_pose
 from ..exploration.world_model import method_safe_voxels
 from ..mapping.distance import unsafe_mask
-from ..mapping.infogain import info_gain_batch
 from ..mapping.occupancy import VoxelState
-from ..mapping.self_occlusion import robot_blocked_rays
+from ..mapping.self_occlusion import robot_view_gains
 from ..motion.planner import DEFAULT_MAX_CHECKS, PlannerConfig, plan
 from ..motion.primitives import DistanceGrid
 from ..motion.validity import ValidityChecker
@@ -194,9 +193,8 @@ class NearFieldScanner:
             sl = tuple(slice(a, b) for a, b in zip(lo, hi))
             self._scratch.state[sl] = occ.state[sl]
         T = self.wm.kin.T_world_cam_batch(Q)
-        skip = robot_blocked_rays(self.wm, Q, T, self.K, c.rays, c.max_range, self.image_size) \
-            if self.config.self_occlusion else None
-        gains = info_gain_batch(self._scratch, T, self.K, c.max_range, c.rays, self.image_size, skip_rays=skip)
+        gains = robot_view_gains(self.wm, self._scratch, Q, T, self.K, c.max_range, c.rays, self.image_size,
+                                 self.config.self_occlusion)
         order = np.argsort(-gains, kind="stable")
         order = order[gains[order] >= self.config.min_gain][: self.config.n_goals]
         if len(order) == 0:
