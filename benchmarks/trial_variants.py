@@ -70,9 +70,13 @@
 * find_only_tree_on_guard / find_only_scan_on_guard / find_only_no_self_occlusion: find_only with the
   tree or the near-field candidates on the guarded checker, or the gains through the arm's own
   body as before 2026-11-25 (`find_only_method`; docs/compass_loop.md, "The gain and the arm's own body").
-* find_only_screen20 / find_only_front: find_only with the creep guard screening the best nodes and
-  near-field candidates before planning (`CompassConfig.guard_screen`), or the fallback gain counted
-  in the box in front of the base (`CompassConfig.fallback_box`).
+* find_only_screen20 / find_only_front: find_only_unscreened with the creep guard screening the best
+  nodes and near-field candidates before planning (`CompassConfig.guard_screen`), or the fallback
+  gain counted in the box in front of the base (`CompassConfig.fallback_box`); both are defaults
+  since 2026-11-25's second session.
+* find_only_unscreened: find_only on the defaults before that (no screen, the fallback gain on all
+  unknown voxels); the variants measured before it (tree_on_guard, scan_on_guard,
+  no_self_occlusion) start from it, so their records stay reproducible.
 * scan_self_occlusion: the defaults with the grasp stage's near-field scan's gain leaving out the rays
   the arm's own body blocks (`TrialScanConfig.self_occlusion`).
 """
@@ -579,10 +583,25 @@ def find_only_method(**changes) -> TrialConfig:
     return TrialConfig(method=replace(CompassConfig(), **changes), grasp=GraspTrialConfig(enabled=False))
 
 
+def find_only_unscreened_method(**changes) -> TrialConfig:
+    """find_only_method on the defaults before 2026-11-25's second session: no guard screen, the
+    fallback gain on all unknown voxels (the variants measured then keep their records)."""
+    return find_only_method(**{"guard_screen": 0, "fallback_box": None, **changes})
+
+
+def find_only_unscreened_config() -> TrialConfig:
+    """find-only on the defaults before the guard screen and the fallback box were adopted."""
+    return find_only_unscreened_method()
+
+
+def find_only_unscreened(spec) -> tuple[dict, dict]:
+    return _run(spec, find_only_unscreened_config())
+
+
 def find_only_tree_on_guard_config() -> TrialConfig:
     """find-only with the viewpoint tree grown on the guarded checker (`CompassConfig.tree_on_guard`;
     docs/compass_loop.md, "The gain and the arm's own body")."""
-    return find_only_method(tree_on_guard=True)
+    return find_only_unscreened_method(tree_on_guard=True)
 
 
 def find_only_tree_on_guard(spec) -> tuple[dict, dict]:
@@ -592,7 +611,7 @@ def find_only_tree_on_guard(spec) -> tuple[dict, dict]:
 def find_only_scan_on_guard_config() -> TrialConfig:
     """find-only with the near-field candidates pulled back on the guarded checker
     (`CompassConfig.scan_on_guard`)."""
-    return find_only_method(scan_on_guard=True)
+    return find_only_unscreened_method(scan_on_guard=True)
 
 
 def find_only_scan_on_guard(spec) -> tuple[dict, dict]:
@@ -603,7 +622,8 @@ def find_only_no_self_occlusion_config() -> TrialConfig:
     """find-only with the gains counting the rays the arm's own body blocks, as before 2026-11-25
     (`TreeConfig.self_occlusion`, `NFAConfig.self_occlusion`)."""
     c = CompassConfig()
-    return find_only_method(tree=replace(c.tree, self_occlusion=False), nfa=replace(c.nfa, self_occlusion=False))
+    return find_only_unscreened_method(tree=replace(c.tree, self_occlusion=False),
+                                       nfa=replace(c.nfa, self_occlusion=False))
 
 
 def find_only_no_self_occlusion(spec) -> tuple[dict, dict]:
@@ -624,7 +644,7 @@ def scan_self_occlusion(spec) -> tuple[dict, dict]:
 def find_only_screen20_config() -> TrialConfig:
     """find-only with up to 20 of the best nodes screened against the creep guard before planning
     (`CompassConfig.guard_screen`)."""
-    return find_only_method(guard_screen=20)
+    return find_only_unscreened_method(guard_screen=20)
 
 
 def find_only_screen20(spec) -> tuple[dict, dict]:
@@ -635,7 +655,7 @@ def find_only_front_config() -> TrialConfig:
     """find-only with the fallback gain (no gain in the confined space from the tree) counted in the box
     in front of the base, x 0..1.2 m, |y| <= 0.6 m, z 0..1.15 m from the base (`CompassConfig.fallback_box`),
     instead of on all unknown voxels."""
-    return find_only_method(fallback_box=((0.0, -0.6, 0.0), (1.2, 0.6, 1.15)))
+    return find_only_unscreened_method(fallback_box=((0.0, -0.6, 0.0), (1.2, 0.6, 1.15)))
 
 
 def find_only_front(spec) -> tuple[dict, dict]:

@@ -33,4 +33,5 @@ def test_the_fallback_map_keeps_unknown_space_only_inside_the_box():
                     axis=-1)
     assert not (unknown & ~inside).any()  # nothing unknown outside the box (one voxel of rounding)
     assert out.state[tuple(behind)] == VoxelState.OCCUPIED  # the obstacle still stops the rays
-    assert CompassMethod._fallback_map(SimpleNamespace(config=CompassConfig())) is None  # off: the world's map
+    off = replace(CompassConfig(), fallback_box=None)
+    assert CompassMethod._fallback_map(SimpleNamespace(config=off)) is None  # off: the world's map

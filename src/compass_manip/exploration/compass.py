@@ -46,7 +46,9 @@ class CompassConfig:
     over near-field candidates it refuses the same way (0: off; the guard then refuses planned
     paths, each a failed plan); fallback_box ((min), (max)) [m] relative to the base: when the
     confined space offers no gain from the tree, count the unknown voxels of this box (seen
-    obstacles outside it still stop the rays) instead of all unknown voxels (None)."""
+    obstacles outside it still stop the rays) instead of all unknown voxels (None). Both
+    defaults (20; x 0..1.2, |y| <= 0.6, z 0..1.15 m) were measured on the development trials
+    (docs/compass_loop.md, "The gain and the arm's own body")."""
 
     world: WorldModelConfig = field(default_factory=WorldModelConfig)
     nfa: NFAConfig = field(default_factory=NFAConfig)
@@ -60,8 +62,9 @@ class CompassConfig:
     escape: EscapeConfig = field(default_factory=EscapeConfig)
     near_field_unsafe: bool = True
     tree_on_guard: bool = False
-    guard_screen: int = 0
-    fallback_box: tuple[tuple[float, float, float], tuple[float, float, float]] | None = None
+    guard_screen: int = 20
+    fallback_box: tuple[tuple[float, float, float], tuple[float, float, float]] | None = ((0.0, -0.6, 0.0),
+                                                                                          (1.2, 0.6, 1.15))
     scan_on_guard: bool = False
 
     def __post_init__(self) -> None:
