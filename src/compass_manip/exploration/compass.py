@@ -24,6 +24,11 @@ from .nfa import NFAConfig, nfa_step, safe_box_map
 from .world_model import WorldModel, WorldModelConfig
 
 
+#: The box [m, relative to the base] in front of the robot that the fallback gain counts
+#: (`CompassConfig.fallback_box`): x 0..1.2, |y| <= 0.6, z 0..1.15.
+FRONT_OF_BASE = ((0.0, -0.6, 0.0), (1.2, 0.6, 1.15))
+
+
 @dataclass(frozen=True)
 class CompassConfig:
     """world: map and validity; nfa: the near-field scan; tree: MUE-RRT sampling; weights:
@@ -63,8 +68,7 @@ class CompassConfig:
     near_field_unsafe: bool = True
     tree_on_guard: bool = False
     guard_screen: int = 20
-    fallback_box: tuple[tuple[float, float, float], tuple[float, float, float]] | None = ((0.0, -0.6, 0.0),
-                                                                                          (1.2, 0.6, 1.15))
+    fallback_box: tuple[tuple[float, float, float], tuple[float, float, float]] | None = FRONT_OF_BASE
     scan_on_guard: bool = False
 
     def __post_init__(self) -> None:
