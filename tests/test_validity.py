@@ -404,3 +404,29 @@ def test_checkers_of_one_sphere_model_share_its_packing_and_equal_a_fresh_one(sm
     assert other._p.robot is not a._p.robot
     Q = np.random.default_rng(3).uniform(Q_MIN, Q_MAX, (300, 7))
     np.testing.assert_array_equal(a.are_valid(Q), other.are_valid(Q))
+
+
+@pytest.mark.parametrize("kind", ["primitives", "grid"])
+def test_first_invalid_equals_checking_every_state_fully(sm, prims, kind):
+    """The scan skips links no moving joint carries once the start is valid: on segments
+    moving only the wrist, only the elbow and wrist, or every joint, its answer is that of
+    checking every state in full."""
+    vc = ValidityChecker(sm, obstacles=prims) if kind == "primitives" else ValidityChecker(sm, grid=_grid_of(prims))
+    rng = np.random.default_rng(21)
+    Q = rng.uniform(Q_MIN, Q_MAX, (600, 7))
+    free = Q[vc.are_valid(Q)]
+    firsts = []
+    for k in range(120):
+        q0 = free[k % len(free)] if k % 10 else Q[k]  # some starts invalid
+        moving = (4, 3, 0)[k % 3]  # joints from this index on move
+        q1 = q0.copy()
+        q1[moving:] = np.clip(q0[moving:] + rng.uniform(-1.0, 1.0, 7 - moving), Q_MIN[moving:], Q_MAX[moving:])
+        for res in (0.005, 0.03):
+            n = max(1, int(np.ceil(np.max(np.abs(q1 - q0)) / res)))
+            states = q0 + (q1 - q0) * (np.arange(n + 1) / n)[:, None]
+            bad = np.flatnonzero(~vc.are_valid(states))
+            want = None if len(bad) == 0 else bad[0] / n
+            assert vc.first_invalid(q0, q1, res) == want
+            firsts.append(-1 if want is None else bad[0])
+    firsts = np.asarray(firsts)
+    assert (firsts == -1).any() and (firsts == 0).any() and (firsts > 1).sum() > 20  # all kinds occur

@@ -306,6 +306,14 @@ def config_valid_kernel(q, kin, robot, grid, prims, limits, params, links, W):
     """Validity of q (7,): limits (NaN is invalid), environment (grid + primitives), then
     self-collision. links (L,4,4) and W (S,3) are scratch arrays. Sphere centres are computed
     only for links whose bounding sphere is near an obstacle or another link."""
+    return _config_valid(q, kin, robot, grid, prims, limits, params, links, W, None)
+
+
+@nb.njit(cache=True, inline="always")
+def _config_valid(q, kin, robot, grid, prims, limits, params, links, W, known):
+    """`config_valid_kernel`; known (L,) bool or None: links whose placement equals that of a
+    configuration found valid (on this checker) are not checked against the environment,
+    nor pairs of two such links against each other (their distances are the same)."""
     qmin, qmax = limits
     for j in range(7):
         if not (qmin[j] <= q[j] <= qmax[j]):
@@ -326,7 +334,7 @@ def config_valid_kernel(q, kin, robot, grid, prims, limits, params, links, W):
         if link_r[i] < 0.0:
             continue
         _transform_point(links, i, link_c, i, bc)
-        if not env_link[i]:
+        if not env_link[i] or (known is not None and known[i]):
             continue
         need = link_r[i] + margin
         for r in range(3):
@@ -350,6 +358,8 @@ def config_valid_kernel(q, kin, robot, grid, prims, limits, params, links, W):
                     return False
     for li in range(lp.shape[0]):
         a, b = lp[li, 0], lp[li, 1]
+        if known is not None and known[a] and known[b]:
+            continue
         d2 = (bc[a, 0] - bc[b, 0]) ** 2 + (bc[a, 1] - bc[b, 1]) ** 2 + (bc[a, 2] - bc[b, 2]) ** 2
         if d2 >= (link_r[a] + link_r[b] + self_margin) ** 2:
             continue
@@ -442,15 +452,24 @@ def edge_valid_from_kernel(q0, q1, n, kin, robot, grid, prims, limits, params):
 
 @nb.njit(cache=True)
 def edge_first_invalid_kernel(q0, q1, n, kin, robot, grid, prims, limits, params):
-    """Index k of the first invalid state q0 + (q1-q0) * k/n scanning k = 0..n, or -1."""
+    """Index k of the first invalid state q0 + (q1-q0) * k/n scanning k = 0..n, or -1. Once
+    q0 is valid, the links no changing joint moves (their placement is q0's at every state,
+    bit for bit: q0[j] + 0 * (k/n) == q0[j]) are not checked again (`_config_valid`)."""
     L, S = kin.parent.shape[0], robot.radii.shape[0]
     links = np.empty((L, 4, 4))
     W = np.empty((S, 3))
     q = np.empty(7)
-    for k in range(n + 1):
+    parent, joint_index = kin.parent, kin.joint_index
+    still = np.empty(L, np.bool_)
+    for i in range(L):  # parents come before their children
+        j = joint_index[i]
+        still[i] = (parent[i] < 0 or still[parent[i]]) and (j < 0 or q1[j] - q0[j] == 0.0)
+    if not config_valid_kernel(q0 + (q1 - q0) * 0.0, kin, robot, grid, prims, limits, params, links, W):
+        return 0
+    for k in range(1, n + 1):
         for j in range(7):
             q[j] = q0[j] + (q1[j] - q0[j]) * (k / n)
-        if not config_valid_kernel(q, kin, robot, grid, prims, limits, params, links, W):
+        if not _config_valid(q, kin, robot, grid, prims, limits, params, links, W, still):
             return k
     return -1
 
