@@ -321,15 +321,21 @@ def test_motion_bounds_bound_sphere_and_pair_motion(sm):
     assert 0.2 < worst_env <= 1.0 and 0.1 < worst_pair <= 1.0  # bounds hold and are not vacuous
 
 
+def _checker_and_samples(sm, prims, kind: str, seed: int):
+    """(checker on the primitives or their grid, its generator, 600 uniform configurations,
+    the valid ones among them)."""
+    vc = ValidityChecker(sm, obstacles=prims) if kind == "primitives" else ValidityChecker(sm, grid=_grid_of(prims))
+    rng = np.random.default_rng(seed)
+    Q = rng.uniform(Q_MIN, Q_MAX, (600, 7))
+    return vc, rng, Q, Q[vc.are_valid(Q)]
+
+
 @pytest.mark.parametrize("kind", ["primitives", "grid"])
 def test_adaptive_edge_check_equals_checking_every_state(sm, prims, kind):
     from compass_manip.motion.edge_bounds import edge_valid_adaptive_kernel
     from compass_manip.motion.validity import edge_valid_kernel
 
-    vc = ValidityChecker(sm, obstacles=prims) if kind == "primitives" else ValidityChecker(sm, grid=_grid_of(prims))
-    rng = np.random.default_rng(11)
-    Q = rng.uniform(Q_MIN, Q_MAX, (600, 7))
-    free = Q[vc.are_valid(Q)]
+    vc, rng, _, free = _checker_and_samples(sm, prims, kind, 11)
     verdicts = []
     for k in range(150):
         q0 = free[k % len(free)]
@@ -411,10 +417,7 @@ def test_first_invalid_equals_checking_every_state_fully(sm, prims, kind):
     """The scan skips links no moving joint carries once the start is valid: on segments
     moving only the wrist, only the elbow and wrist, or every joint, its answer is that of
     checking every state in full."""
-    vc = ValidityChecker(sm, obstacles=prims) if kind == "primitives" else ValidityChecker(sm, grid=_grid_of(prims))
-    rng = np.random.default_rng(21)
-    Q = rng.uniform(Q_MIN, Q_MAX, (600, 7))
-    free = Q[vc.are_valid(Q)]
+    vc, rng, Q, free = _checker_and_samples(sm, prims, kind, 21)
     firsts = []
     for k in range(120):
         q0 = free[k % len(free)] if k % 10 else Q[k]  # some starts invalid
