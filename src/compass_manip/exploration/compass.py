@@ -75,14 +75,10 @@ class CompassConfig:
         check_field_types(self, nonnegative_ints=True)
         check_ranges(self, verify_resolution=(1e-4, 0.5, "rad"), prior_inset=(-0.5, 0.5, "m"),
                      max_attempts=(1, 1000, ""), retry_iterations_factor=(1, 100, ""), guard_screen=(0, 100000, ""))
-        if self.fallback_box is not None:
-            try:
-                box = np.asarray(self.fallback_box, dtype=float)
-            except (TypeError, ValueError):
-                box = None
-            if box is None or box.shape != (2, 3) or not np.isfinite(box).all() or not (box[0] < box[1]).all():
-                raise CompassInputError(f"CompassConfig.fallback_box = {self.fallback_box!r:.60} is not allowed; "
-                                        "use None or ((x, y, z) min, (x, y, z) max) [m] with min < max")
+        # check_field_types has checked the box's shape and numbers (its default is a box)
+        if self.fallback_box is not None and not (np.subtract(*self.fallback_box) < 0).all():
+            raise CompassInputError(f"CompassConfig.fallback_box = {self.fallback_box!r:.60} is not allowed; "
+                                    "use None or ((x, y, z) min, (x, y, z) max) [m] with min < max")
 
 
 def near_field_world(config: CompassConfig) -> WorldModelConfig:
